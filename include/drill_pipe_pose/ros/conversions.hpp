@@ -1,0 +1,39 @@
+#pragma once
+// Conversions between ROS messages and the ROS-free core types. The only place that knows both.
+
+#include <drill_pipe_pose/PipeBox.h>
+#include <drill_pipe_pose/SensorFrame.h>
+#include <ros/time.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
+
+#include "drill_pipe_pose/core/camera_model.hpp"
+#include "drill_pipe_pose/core/depth_image.hpp"
+#include "drill_pipe_pose/core/sensor_frame.hpp"
+
+namespace drill_pipe_pose {
+
+int64_t toNs(const ros::Time& t);
+ros::Time fromNs(int64_t ns);
+
+CameraInfoData fromMsg(const sensor_msgs::CameraInfo& msg);
+/// header.stamp is set from stamp_ns, header.frame_id from info.frame_id.
+sensor_msgs::CameraInfo toMsg(const CameraInfoData& info, int64_t stamp_ns);
+
+/// Wraps the pixels of `msg` without copying; the returned image keeps `msg` alive. Throws
+/// InputError naming `source` for an unsupported encoding or a big-endian image.
+DepthImage depthFromMsg(const sensor_msgs::ImageConstPtr& msg, const std::string& source);
+/// As above but copies the pixels (for messages not held by a shared pointer).
+DepthImage depthFromMsg(const sensor_msgs::Image& msg, const std::string& source);
+sensor_msgs::Image toMsg(const DepthImage& image, int64_t stamp_ns, const std::string& frame_id);
+
+DetectionBox fromMsg(const PipeBox& msg, const std::string& source);
+PipeBox toMsg(const DetectionBox& box);
+
+/// Converts and validates a SensorFrame: camera name present, both CameraInfos usable, depth
+/// encoding supported, depth image consistent with its CameraInfo (size, roi, step), labels known.
+/// Throws InputError naming the camera and the field. The depth pixels are shared, not copied.
+SensorFrameData fromMsg(const SensorFrameConstPtr& msg);
+SensorFrame toMsg(const SensorFrameData& frame);
+
+}  // namespace drill_pipe_pose
