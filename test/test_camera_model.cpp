@@ -138,7 +138,8 @@ TEST(DepthToColorRegistration, PointSeenByBothCamerasLandsOnItsPixelInEach) {
                                .toRotationMatrix();
   T_color_depth.translation() << -0.0515, 0.001, -0.001;
   const DepthToColorRegistration reg(depth, color, T_color_depth);
-  const Eigen::Matrix3d Kc = Eigen::Map<const Eigen::Matrix3d>(kinectColorInfo().K.data()).transpose();
+  const Eigen::Matrix3d Kc =
+      Eigen::Map<const Eigen::Matrix3d>(kinectColorInfo().K.data()).transpose();
   int checked = 0;
   for (int i = 0; i < 500; ++i) {
     const Eigen::Vector3d p_color(xy(rng), xy(rng), zz(rng));

@@ -13,7 +13,9 @@ using drill_pipe_pose_test::serialize;
 
 namespace {
 
-SensorFrameConstPtr share(const SensorFrame& f) { return boost::make_shared<SensorFrame>(f); }
+SensorFrameConstPtr share(const SensorFrame& f) {
+  return boost::make_shared<SensorFrame>(f);
+}
 
 void expectRejected(const SensorFrame& f, std::initializer_list<const char*> needles) {
   try {

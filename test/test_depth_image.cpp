@@ -10,7 +10,9 @@ using namespace drill_pipe_pose;
 
 namespace {
 
-PinholeCamera depthCamera() { return PinholeCamera::fromIntrinsics(512, 424, 365.4, 365.4, 260.9, 205.6); }
+PinholeCamera depthCamera() {
+  return PinholeCamera::fromIntrinsics(512, 424, 365.4, 365.4, 260.9, 205.6);
+}
 
 void expectInvalid(const DepthImage& img, const PinholeCamera& cam,
                    std::initializer_list<const char*> needles) {
@@ -103,7 +105,8 @@ TEST(DepthProjector, ForEachPointClampsToImage) {
   for (uint32_t v = 0; v < 424; ++v)
     for (uint32_t u = 0; u < 512; ++u) img.setDepth(u, v, 3.0f);
   int n = 0;
-  DepthProjector(cam).forEachPoint(img, -10, -10, 5, 4, [&](int, int, const Eigen::Vector3f&) { ++n; });
+  DepthProjector(cam).forEachPoint(img, -10, -10, 5, 4,
+                                   [&](int, int, const Eigen::Vector3f&) { ++n; });
   EXPECT_EQ(n, 20);
 }
 

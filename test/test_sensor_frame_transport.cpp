@@ -11,8 +11,7 @@ TEST(SensorFrameTransport, ArrivesIntact) {
   ros::NodeHandle nh;
   drill_pipe_pose::SensorFrameConstPtr received;
   auto sub = nh.subscribe<drill_pipe_pose::SensorFrame>(
-      "cam3/sensor_frame", 1,
-      [&](const drill_pipe_pose::SensorFrameConstPtr& m) { received = m; });
+      "cam3/sensor_frame", 1, [&](const drill_pipe_pose::SensorFrameConstPtr& m) { received = m; });
   const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(20.0);
   while (!received && ros::WallTime::now() < deadline) {
     ros::spinOnce();

@@ -28,8 +28,7 @@ PinholeCamera PinholeCamera::fromIntrinsics(uint32_t width, uint32_t height, dou
   return fromCameraInfo(info, "intrinsics");
 }
 
-PinholeCamera PinholeCamera::fromCameraInfo(const CameraInfoData& info,
-                                            const std::string& source) {
+PinholeCamera PinholeCamera::fromCameraInfo(const CameraInfoData& info, const std::string& source) {
   if (info.width == 0 || info.height == 0)
     fail(source, ": image size width = ", info.width, ", height = ", info.height,
          " (both must be > 0)");

@@ -50,7 +50,8 @@ void validateDepthImage(const DepthImage& image, const PinholeCamera& camera,
   const size_t min_step = static_cast<size_t>(image.width) * bytesPerPixel(image.encoding);
   if (image.step < min_step)
     fail(source, ": depth image step = ", image.step, " bytes is less than width * ",
-         bytesPerPixel(image.encoding), " = ", min_step, " for ", depthEncodingName(image.encoding));
+         bytesPerPixel(image.encoding), " = ", min_step, " for ",
+         depthEncodingName(image.encoding));
   const size_t need = static_cast<size_t>(image.step) * image.height;
   if (!image.data || image.size < need)
     fail(source, ": depth image data has ", image.size, " bytes, step * height = ", need,

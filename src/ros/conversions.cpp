@@ -6,7 +6,9 @@
 
 namespace drill_pipe_pose {
 
-int64_t toNs(const ros::Time& t) { return static_cast<int64_t>(t.toNSec()); }
+int64_t toNs(const ros::Time& t) {
+  return static_cast<int64_t>(t.toNSec());
+}
 ros::Time fromNs(int64_t ns) {
   ros::Time t;
   t.fromNSec(static_cast<uint64_t>(ns));

@@ -60,10 +60,10 @@ class PinholeCamera {
   /// The same camera delivering only `roi` of its full image (throws InputError if outside).
   PinholeCamera cropped(const ImageRoi& roi, const std::string& source) const;
 
-  double fx() const { return fx_; }  ///< [px]
-  double fy() const { return fy_; }  ///< [px]
-  double cx() const { return cx_; }  ///< [px] in the FULL sensor image
-  double cy() const { return cy_; }  ///< [px] in the FULL sensor image
+  double fx() const { return fx_; }                         ///< [px]
+  double fy() const { return fy_; }                         ///< [px]
+  double cx() const { return cx_; }                         ///< [px] in the FULL sensor image
+  double cy() const { return cy_; }                         ///< [px] in the FULL sensor image
   uint32_t sensorWidth() const { return sensor_width_; }    ///< [px] full image
   uint32_t sensorHeight() const { return sensor_height_; }  ///< [px] full image
   uint32_t imageWidth() const { return image_width_; }      ///< [px] delivered (cropped) image

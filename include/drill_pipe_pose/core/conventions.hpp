@@ -17,15 +17,31 @@ constexpr const char* kPinEndLabel = "pin_end";
 constexpr const char* kDefaultWorldFrame = "world";
 
 /// kinect2_bridge-style per-camera topics and frames (`<cam>` = base_name).
-inline std::string colorImageTopic(const std::string& cam) { return cam + "/qhd/image_color_rect"; }
-inline std::string colorInfoTopic(const std::string& cam) { return cam + "/qhd/camera_info"; }
-inline std::string depthImageTopic(const std::string& cam) { return cam + "/sd/image_depth_rect"; }
-inline std::string depthInfoTopic(const std::string& cam) { return cam + "/sd/camera_info"; }
-inline std::string sensorFrameTopic(const std::string& cam) { return cam + "/sensor_frame"; }
+inline std::string colorImageTopic(const std::string& cam) {
+  return cam + "/qhd/image_color_rect";
+}
+inline std::string colorInfoTopic(const std::string& cam) {
+  return cam + "/qhd/camera_info";
+}
+inline std::string depthImageTopic(const std::string& cam) {
+  return cam + "/sd/image_depth_rect";
+}
+inline std::string depthInfoTopic(const std::string& cam) {
+  return cam + "/sd/camera_info";
+}
+inline std::string sensorFrameTopic(const std::string& cam) {
+  return cam + "/sensor_frame";
+}
 /// `<cam>_link` is identical to `<cam>_rgb_optical_frame` (kinect2_bridge, publish_tf:=true).
-inline std::string linkFrame(const std::string& cam) { return cam + "_link"; }
-inline std::string colorOpticalFrame(const std::string& cam) { return cam + "_rgb_optical_frame"; }
-inline std::string depthOpticalFrame(const std::string& cam) { return cam + "_ir_optical_frame"; }
+inline std::string linkFrame(const std::string& cam) {
+  return cam + "_link";
+}
+inline std::string colorOpticalFrame(const std::string& cam) {
+  return cam + "_rgb_optical_frame";
+}
+inline std::string depthOpticalFrame(const std::string& cam) {
+  return cam + "_ir_optical_frame";
+}
 
 /// Estimator outputs (relative to the node namespace) and simulation ground truth.
 inline std::string poseTopic(EndLabel e) {

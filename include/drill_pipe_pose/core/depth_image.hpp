@@ -23,7 +23,9 @@ DepthEncoding parseDepthEncoding(const std::string& encoding, const std::string&
 /// The ROS encoding string ("16UC1" / "32FC1").
 const char* depthEncodingName(DepthEncoding e);
 /// Bytes per pixel of an encoding.
-inline size_t bytesPerPixel(DepthEncoding e) { return e == DepthEncoding::kU16Millimetres ? 2 : 4; }
+inline size_t bytesPerPixel(DepthEncoding e) {
+  return e == DepthEncoding::kU16Millimetres ? 2 : 4;
+}
 
 /// A depth image (the fields of sensor_msgs/Image the core needs). The pixel data is shared, not
 /// copied: the ROS layer points `data` into the message and keeps the message alive.

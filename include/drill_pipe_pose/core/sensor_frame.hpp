@@ -19,9 +19,9 @@ struct DetectionBox {
 };
 
 struct SensorFrameData {
-  std::string camera;        ///< sensor node name (<cam>)
-  int64_t stamp_ns = 0;      ///< capture time of the colour image [ns since epoch]
-  std::string frame_id;      ///< colour optical frame
+  std::string camera;    ///< sensor node name (<cam>)
+  int64_t stamp_ns = 0;  ///< capture time of the colour image [ns since epoch]
+  std::string frame_id;  ///< colour optical frame
   CameraInfoData color_info;
   CameraInfoData depth_info;
   int64_t depth_stamp_ns = 0;  ///< capture time of the depth image [ns]
