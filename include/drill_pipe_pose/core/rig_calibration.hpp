@@ -1,0 +1,41 @@
+#pragma once
+// The rig calibration file (DESIGN.md): one YAML file per rig with `world -> <cam>_link` for every
+// camera (translation [m] + unit quaternion x y z w). One schema, one loader, used by the
+// simulator, the launch files (through the rig_tf_publisher node) and the tools.
+//
+//   world_frame: world            # optional, default "world"
+//   cameras:
+//     - name: cam1                # unique, [A-Za-z][A-Za-z0-9_]*
+//       translation: [4.7, 0.2, 5.0]
+//       rotation: [0.0, 0.0, 0.0, 1.0]   # x y z w, unit length (tolerance 1e-3; normalised)
+//
+// Optional per camera, for the simulator only: `sensor: kinect_v2` (sensor model name).
+
+#include <Eigen/Geometry>
+#include <string>
+#include <vector>
+
+namespace drill_pipe_pose {
+
+struct CameraCalibration {
+  std::string name;
+  Eigen::Isometry3d T_world_link = Eigen::Isometry3d::Identity();
+  std::string sensor = "kinect_v2";
+};
+
+struct RigCalibration {
+  std::string world_frame = "world";
+  std::vector<CameraCalibration> cameras;
+  /// Index of camera `name`, or -1.
+  int find(const std::string& name) const;
+};
+
+/// Loads and validates a rig file. Throws InputError naming the file, the camera and the field
+/// (unit quaternion, finite numbers, 3 / 4 elements, unique names, at least one camera).
+RigCalibration loadRigCalibration(const std::string& path);
+/// The same from YAML text; `source` names it in errors.
+RigCalibration parseRigCalibration(const std::string& yaml_text, const std::string& source);
+/// YAML text of a calibration (round-trips through parseRigCalibration).
+std::string rigCalibrationToYaml(const RigCalibration& rig);
+
+}  // namespace drill_pipe_pose

@@ -1,0 +1,77 @@
+// Rig calibration files: valid files load and round-trip; malformed ones are named precisely.
+#include <gtest/gtest.h>
+
+#include "drill_pipe_pose/core/errors.hpp"
+#include "drill_pipe_pose/core/rig_calibration.hpp"
+
+using namespace drill_pipe_pose;
+
+namespace {
+
+const char* kValid = R"(
+world_frame: world
+cameras:
+  - name: cam1
+    translation: [4.7, 0.2, 5.0]
+    rotation: [0.0, 0.0, 0.0, 1.0]
+  - name: cam2
+    translation: [0.2, 5.0, 5.0]
+    rotation: [0.7071068, 0.0, 0.0, 0.7071068]
+)";
+
+void expectRejected(const std::string& yaml, std::initializer_list<const char*> needles) {
+  try {
+    parseRigCalibration(yaml, "rig.yaml");
+    FAIL() << "accepted:\n" << yaml;
+  } catch (const InputError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("rig.yaml"), std::string::npos) << msg;
+    for (const char* n : needles) EXPECT_NE(msg.find(n), std::string::npos) << msg;
+  }
+}
+
+std::string replace(std::string s, const std::string& from, const std::string& to) {
+  s.replace(s.find(from), from.size(), to);
+  return s;
+}
+
+}  // namespace
+
+TEST(RigCalibration, LoadsAndRoundTrips) {
+  const RigCalibration rig = parseRigCalibration(kValid, "rig.yaml");
+  ASSERT_EQ(rig.cameras.size(), 2u);
+  EXPECT_EQ(rig.find("cam2"), 1);
+  EXPECT_EQ(rig.find("cam9"), -1);
+  EXPECT_TRUE(rig.cameras[0].T_world_link.translation().isApprox(Eigen::Vector3d(4.7, 0.2, 5.0)));
+  const Eigen::Vector3d y = rig.cameras[1].T_world_link.linear() * Eigen::Vector3d::UnitY();
+  EXPECT_TRUE(y.isApprox(Eigen::Vector3d::UnitZ(), 1e-6));  // 90 deg about x
+  const RigCalibration back = parseRigCalibration(rigCalibrationToYaml(rig), "again");
+  ASSERT_EQ(back.cameras.size(), 2u);
+  EXPECT_TRUE(back.cameras[1].T_world_link.isApprox(rig.cameras[1].T_world_link, 1e-12));
+}
+
+TEST(RigCalibrationBadInput, NonUnitQuaternionNamesCameraAndField) {
+  expectRejected(replace(kValid, "[0.7071068, 0.0, 0.0, 0.7071068]", "[0.5, 0.0, 0.0, 0.5]"),
+                 {"camera 'cam2'", "rotation", "norm 0.707"});
+}
+
+TEST(RigCalibrationBadInput, NonFiniteAndWrongLength) {
+  expectRejected(replace(kValid, "[4.7, 0.2, 5.0]", "[4.7, .nan, 5.0]"),
+                 {"camera 'cam1'", "translation[1]", "not finite"});
+  expectRejected(replace(kValid, "[4.7, 0.2, 5.0]", "[4.7, 0.2]"),
+                 {"camera 'cam1'", "translation", "3 numbers", "2 elements"});
+  expectRejected(replace(kValid, "[4.7, 0.2, 5.0]", "[4.7, abc, 5.0]"),
+                 {"camera 'cam1'", "translation[1] = 'abc'"});
+}
+
+TEST(RigCalibrationBadInput, DuplicateUnknownAndMissing) {
+  expectRejected(replace(kValid, "name: cam2", "name: cam1"), {"camera 'cam1'", "duplicate"});
+  expectRejected(replace(kValid, "    rotation: [0.0, 0.0, 0.0, 1.0]",
+                         "    rotation: [0.0, 0.0, 0.0, 1.0]\n    rotaton: [1, 2]"),
+                 {"camera 'cam1'", "unknown field 'rotaton'"});
+  expectRejected(replace(kValid, "    translation: [0.2, 5.0, 5.0]\n", ""),
+                 {"camera 'cam2'", "translation is missing"});
+  expectRejected("cameras: []", {"non-empty"});
+  expectRejected("cameras: [", {"not valid YAML"});
+  EXPECT_THROW(loadRigCalibration("/nonexistent/rig.yaml"), InputError);
+}
