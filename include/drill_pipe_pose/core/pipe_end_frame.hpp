@@ -20,3 +20,18 @@ inline Eigen::Isometry3d canonicalize(const Eigen::Isometry3d& T_world_end) {
 }
 
 }  // namespace drill_pipe_pose
+
+namespace drill_pipe_pose {
+
+/// The pin-end seen from the box-end while stabbing: the pin's origin (its shoulder) in the box
+/// frame. All zero when the connection is made up.
+struct PinInBoxRelation {
+  double axial_standoff = 0;  ///< pin origin along box z [m] (> 0: pin still above the box face)
+  double lateral_offset = 0;  ///< distance of the pin origin from the box axis [m]
+  double axis_angle = 0;      ///< angle between box z and the reversed pin z [rad]
+};
+
+PinInBoxRelation pinInBox(const Eigen::Isometry3d& T_world_box,
+                          const Eigen::Isometry3d& T_world_pin);
+
+}  // namespace drill_pipe_pose

@@ -1,0 +1,77 @@
+#pragma once
+// Scoring estimates against ground truth (the `evaluate` tool, the bench and the tests): ground
+// truth interpolated at each cycle stamp, errors per DESIGN.md metrics, statistics per end.
+
+#include <Eigen/Geometry>
+#include <array>
+#include <cstdint>
+#include <iosfwd>
+#include <string>
+#include <vector>
+
+#include "drill_pipe_pose/core/conventions.hpp"
+#include "drill_pipe_pose/core/metrics.hpp"
+
+namespace drill_pipe_pose {
+
+/// Ground-truth track of one end: poses sampled in time (any rate, sorted by add order).
+class GroundTruthTrack {
+ public:
+  void add(int64_t stamp_ns, const Eigen::Isometry3d& T_world_end);
+  bool empty() const { return stamps_.empty(); }
+  size_t size() const { return stamps_.size(); }
+  int64_t firstStamp() const { return stamps_.front(); }
+  int64_t lastStamp() const { return stamps_.back(); }
+  /// Pose at `stamp_ns` (linear position, slerp rotation between the bracketing samples). False
+  /// when outside [first, last] by more than `max_extrapolation_ns`.
+  bool at(int64_t stamp_ns, Eigen::Isometry3d* T_world_end,
+          int64_t max_extrapolation_ns = 50000000) const;
+
+ private:
+  void sortIfNeeded() const;
+  mutable bool sorted_ = true;
+  mutable std::vector<int64_t> stamps_;
+  mutable std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>> poses_;
+};
+
+/// One estimate of one end in one cycle.
+struct EstimateSample {
+  int64_t stamp_ns = 0;
+  EndLabel label = EndLabel::kBoxEnd;
+  bool valid = false;
+  Eigen::Isometry3d T_world_end = Eigen::Isometry3d::Identity();
+  Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();
+};
+
+/// Result of scoring one end.
+struct EndEvaluation {
+  EndLabel label = EndLabel::kBoxEnd;
+  bool present = false;  ///< ground truth exists for this end
+  ErrorStats stats;
+  std::vector<int64_t> stamps;  ///< stamp of each scored estimate (same order as stats.errors)
+  /// Fraction of scored estimates whose position error lies inside the 3-sigma ellipsoid of the
+  /// reported position covariance (NaN when no covariance was given).
+  double within_3sigma = 0;
+  Eigen::Vector3d true_position = Eigen::Vector3d::Zero();  ///< mean ground-truth position
+};
+
+struct EvaluationOptions {
+  double expected_rate_hz = 30.0;  ///< expected cycles per second of ground truth (DESIGN.md)
+  /// Expected cycles; 0 = expected_rate_hz * ground-truth span.
+  size_t expected_cycles = 0;
+};
+
+/// Scores `estimates` of each end against its ground-truth track (index = EndLabel).
+std::array<EndEvaluation, kNumEnds> evaluate(const std::array<GroundTruthTrack, kNumEnds>& truth,
+                                             const std::vector<EstimateSample>& estimates,
+                                             const EvaluationOptions& options = {});
+
+/// Writes one CSV row per scored estimate:
+/// stamp_s,end,ex,ey,ez,err,along,across,axis_deg,rx_deg,ry_deg.
+void writeErrorCsv(const std::array<EndEvaluation, kNumEnds>& evals, std::ostream& out);
+
+/// Prints the thesis-style table (mean and sigma of x, y, z, rotation about x and y) and the
+/// symmetry-aware errors with success rates, per end.
+void printEvaluation(const std::array<EndEvaluation, kNumEnds>& evals, std::ostream& out);
+
+}  // namespace drill_pipe_pose

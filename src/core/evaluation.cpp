@@ -1,0 +1,151 @@
+#include "drill_pipe_pose/core/evaluation.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <numeric>
+#include <ostream>
+
+namespace drill_pipe_pose {
+
+void GroundTruthTrack::add(int64_t stamp_ns, const Eigen::Isometry3d& T_world_end) {
+  if (!stamps_.empty() && stamp_ns < stamps_.back()) sorted_ = false;
+  stamps_.push_back(stamp_ns);
+  poses_.push_back(T_world_end);
+}
+
+void GroundTruthTrack::sortIfNeeded() const {
+  if (sorted_) return;
+  std::vector<size_t> idx(stamps_.size());
+  std::iota(idx.begin(), idx.end(), 0);
+  std::stable_sort(idx.begin(), idx.end(),
+                   [&](size_t a, size_t b) { return stamps_[a] < stamps_[b]; });
+  auto s = stamps_;
+  auto p = poses_;
+  for (size_t i = 0; i < idx.size(); ++i) {
+    stamps_[i] = s[idx[i]];
+    poses_[i] = p[idx[i]];
+  }
+  sorted_ = true;
+}
+
+bool GroundTruthTrack::at(int64_t t, Eigen::Isometry3d* T, int64_t max_extrapolation_ns) const {
+  if (stamps_.empty()) return false;
+  sortIfNeeded();
+  if (t < stamps_.front() - max_extrapolation_ns || t > stamps_.back() + max_extrapolation_ns)
+    return false;
+  const auto it = std::lower_bound(stamps_.begin(), stamps_.end(), t);
+  if (it == stamps_.begin()) {
+    *T = poses_.front();
+    return true;
+  }
+  if (it == stamps_.end()) {
+    *T = poses_.back();
+    return true;
+  }
+  const size_t j = static_cast<size_t>(it - stamps_.begin()), i = j - 1;
+  const double span = static_cast<double>(stamps_[j] - stamps_[i]);
+  const double s = span > 0 ? static_cast<double>(t - stamps_[i]) / span : 0.0;
+  const Eigen::Quaterniond qa(poses_[i].linear()), qb(poses_[j].linear());
+  T->setIdentity();
+  T->linear() = qa.slerp(s, qb).toRotationMatrix();
+  T->translation() = (1 - s) * poses_[i].translation() + s * poses_[j].translation();
+  return true;
+}
+
+std::array<EndEvaluation, kNumEnds> evaluate(const std::array<GroundTruthTrack, kNumEnds>& truth,
+                                             const std::vector<EstimateSample>& estimates,
+                                             const EvaluationOptions& options) {
+  std::array<EndEvaluation, kNumEnds> out;
+  for (int e = 0; e < kNumEnds; ++e) {
+    EndEvaluation& ev = out[e];
+    ev.label = static_cast<EndLabel>(e);
+    const GroundTruthTrack& gt = truth[e];
+    ev.present = !gt.empty();
+    if (!ev.present) continue;
+    size_t expected = options.expected_cycles;
+    if (expected == 0)
+      expected = static_cast<size_t>(std::llround(
+          options.expected_rate_hz * static_cast<double>(gt.lastStamp() - gt.firstStamp()) * 1e-9));
+    std::vector<PoseError> errors;
+    std::vector<Eigen::Vector3d> positions;
+    size_t with_cov = 0, inside = 0;
+    Eigen::Vector3d true_sum = Eigen::Vector3d::Zero();
+    for (const auto& est : estimates) {
+      if (est.label != ev.label || !est.valid) continue;
+      Eigen::Isometry3d T_true;
+      if (!gt.at(est.stamp_ns, &T_true)) continue;
+      const PoseError err = poseError(T_true, est.T_world_end);
+      errors.push_back(err);
+      positions.push_back(est.T_world_end.translation());
+      ev.stamps.push_back(est.stamp_ns);
+      true_sum += T_true.translation();
+      const Eigen::Matrix3d P = est.covariance.topLeftCorner<3, 3>();
+      if (P.trace() > 0) {
+        ++with_cov;
+        const double d2 = err.position.dot(P.ldlt().solve(err.position));
+        if (d2 <= 9.0) ++inside;
+      }
+    }
+    ev.stats = computeStats(errors, positions, std::max(expected, errors.size()));
+    ev.within_3sigma = with_cov ? static_cast<double>(inside) / with_cov : std::nan("");
+    if (!errors.empty()) ev.true_position = true_sum / static_cast<double>(errors.size());
+  }
+  return out;
+}
+
+void writeErrorCsv(const std::array<EndEvaluation, kNumEnds>& evals, std::ostream& out) {
+  out << "stamp_s,end,ex_m,ey_m,ez_m,error_m,along_m,across_m,axis_angle_deg,rx_deg,ry_deg\n";
+  out << std::setprecision(9);
+  const double deg = 180.0 / M_PI;
+  for (const auto& ev : evals)
+    for (size_t i = 0; i < ev.stats.errors.size(); ++i) {
+      const PoseError& e = ev.stats.errors[i];
+      out << ev.stamps[i] * 1e-9 << ',' << labelName(ev.label) << ',' << e.position.x() << ','
+          << e.position.y() << ',' << e.position.z() << ',' << e.position_norm << ','
+          << e.along_axis << ',' << e.across_axis << ',' << e.axis_angle * deg << ','
+          << e.rotation_vector.x() * deg << ',' << e.rotation_vector.y() * deg << '\n';
+    }
+}
+
+void printEvaluation(const std::array<EndEvaluation, kNumEnds>& evals, std::ostream& out) {
+  const double deg = 180.0 / M_PI;
+  out << std::fixed;
+  for (const auto& ev : evals) {
+    if (!ev.present) continue;
+    const ErrorStats& s = ev.stats;
+    out << "== " << labelName(ev.label) << ": " << s.estimates << " estimates / "
+        << s.expected_cycles << " expected cycles\n";
+    if (s.estimates == 0) {
+      out << "   no valid estimate\n";
+      continue;
+    }
+    out << "   axis   true [m]  mean [m]  error mean [mm]  sigma [mm]  rot mean [deg]  rot sigma "
+           "[deg]\n";
+    const char* axes[] = {"x", "y", "z"};
+    for (int a = 0; a < 3; ++a) {
+      out << "   " << axes[a] << std::setw(12) << std::setprecision(3) << ev.true_position[a]
+          << std::setw(10) << s.mean_position[a] << std::setw(17) << std::setprecision(1)
+          << s.mean_error[a] * 1e3 << std::setw(12) << s.std_position[a] * 1e3;
+      if (a < 2)
+        out << std::setw(16) << std::setprecision(2) << s.mean_rotation[a] * deg << std::setw(17)
+            << s.std_rotation[a] * deg;
+      out << '\n';
+    }
+    out << std::setprecision(1) << "   3D error [mm]: mean " << s.mean_position_error * 1e3
+        << ", median " << s.p50_position_error * 1e3 << ", p95 " << s.p95_position_error * 1e3
+        << ", max " << s.max_position_error * 1e3 << "; along axis " << s.mean_along * 1e3
+        << ", across " << s.mean_across * 1e3 << '\n';
+    out << std::setprecision(2) << "   axis angle [deg]: mean " << s.mean_axis_angle * deg
+        << ", p95 " << s.p95_axis_angle * deg << ", max " << s.max_axis_angle * deg << '\n';
+    out << std::setprecision(1) << "   within 1 cm/1 deg " << 100 * s.fractionWithin(0.01, 1 / deg)
+        << " %, 2 cm/2 deg " << 100 * s.fractionWithin(0.02, 2 / deg) << " %, 5 cm/5 deg "
+        << 100 * s.fractionWithin(0.05, 5 / deg) << " % of expected cycles\n";
+    if (!std::isnan(ev.within_3sigma))
+      out << "   error inside the reported 3-sigma ellipsoid: " << 100 * ev.within_3sigma
+          << " % of estimates\n";
+  }
+  out.unsetf(std::ios::fixed);
+}
+
+}  // namespace drill_pipe_pose

@@ -1,0 +1,93 @@
+// Evaluation: ground truth scored against itself is zero; a known offset comes back exactly.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <sstream>
+
+#include "drill_pipe_pose/core/evaluation.hpp"
+#include "drill_pipe_pose/core/pipe_end_frame.hpp"
+
+using namespace drill_pipe_pose;
+
+namespace {
+
+// A pin-end descending at 0.2 m/s while tilting, sampled at 100 Hz for 2 s.
+GroundTruthTrack movingTrack() {
+  GroundTruthTrack t;
+  for (int i = 0; i <= 200; ++i) {
+    const double s = i * 0.01;
+    t.add(static_cast<int64_t>(1e9 * (100 + s)),
+          canonicalPose({4.7, 6.8, 2.0 - 0.2 * s}, {0.1 * s, 0, -1}));
+  }
+  return t;
+}
+
+}  // namespace
+
+TEST(Evaluation, GroundTruthAgainstItselfIsZero) {
+  std::array<GroundTruthTrack, kNumEnds> truth;
+  truth[1] = movingTrack();
+  std::vector<EstimateSample> est;
+  for (int k = 0; k < 60; ++k) {  // 30 Hz cycles, off the ground-truth sample times
+    EstimateSample s;
+    s.stamp_ns = static_cast<int64_t>(1e9 * (100.005 + k / 30.0));
+    s.label = EndLabel::kPinEnd;
+    s.valid = true;
+    ASSERT_TRUE(truth[1].at(s.stamp_ns, &s.T_world_end));
+    est.push_back(s);
+  }
+  const auto ev = evaluate(truth, est);
+  EXPECT_FALSE(ev[0].present);
+  ASSERT_TRUE(ev[1].present);
+  EXPECT_EQ(ev[1].stats.expected_cycles, 60u);
+  EXPECT_EQ(ev[1].stats.estimates, 60u);
+  EXPECT_NEAR(ev[1].stats.max_position_error, 0.0, 1e-12);
+  EXPECT_NEAR(ev[1].stats.max_axis_angle, 0.0, 1e-7);
+  EXPECT_DOUBLE_EQ(ev[1].stats.fractionWithin(0.01, 0.0175), 1.0);
+}
+
+TEST(Evaluation, KnownOffsetComesBackExactly) {
+  std::array<GroundTruthTrack, kNumEnds> truth;
+  truth[0].add(0, canonicalPose({4.694, 5.3, 0.23}, {0, 0, 1}));
+  truth[0].add(10000000000, canonicalPose({4.694, 5.3, 0.23}, {0, 0, 1}));
+  const double tilt = 1.5 * M_PI / 180;
+  std::vector<EstimateSample> est;
+  for (int k = 0; k < 300; ++k) {
+    EstimateSample s;
+    s.stamp_ns = static_cast<int64_t>(k * 1e9 / 30);
+    s.valid = k % 10 != 0;  // every tenth cycle invalid: a failure, not an estimate
+    s.T_world_end = canonicalPose({4.694 + 0.003, 5.3 - 0.004, 0.23 + 0.012},
+                                  {std::sin(tilt), 0, std::cos(tilt)});
+    s.covariance.topLeftCorner<3, 3>() = Eigen::Matrix3d::Identity() * 1e-4;  // 1 cm sigma
+    est.push_back(s);
+  }
+  const auto ev = evaluate(truth, est);
+  const ErrorStats& s = ev[0].stats;
+  EXPECT_EQ(s.expected_cycles, 300u);
+  EXPECT_EQ(s.estimates, 270u);
+  EXPECT_NEAR(s.mean_error.x(), 0.003, 1e-12);
+  EXPECT_NEAR(s.mean_error.y(), -0.004, 1e-12);
+  EXPECT_NEAR(s.mean_error.z(), 0.012, 1e-12);
+  EXPECT_NEAR(s.mean_position_error, 0.013, 1e-12);
+  EXPECT_NEAR(s.std_position.norm(), 0.0, 1e-12);
+  EXPECT_NEAR(s.mean_along, 0.012, 1e-12);
+  EXPECT_NEAR(s.mean_axis_angle, tilt, 1e-9);
+  EXPECT_NEAR(s.mean_rotation.y(), tilt, 1e-9);
+  EXPECT_NEAR(s.fractionWithin(0.02, 2 * M_PI / 180), 0.9, 1e-12);
+  EXPECT_DOUBLE_EQ(s.fractionWithin(0.01, 1), 0.0);
+  EXPECT_DOUBLE_EQ(ev[0].within_3sigma, 1.0);  // 13 mm < 3 * 10 mm
+  std::ostringstream table, csv;
+  printEvaluation(ev, table);
+  writeErrorCsv(ev, csv);
+  EXPECT_NE(table.str().find("box_end: 270 estimates / 300 expected cycles"), std::string::npos)
+      << table.str();
+  EXPECT_NE(csv.str().find("box_end,0.003"), std::string::npos);
+}
+
+TEST(Evaluation, InterpolatesBetweenSamples) {
+  const GroundTruthTrack t = movingTrack();
+  Eigen::Isometry3d T;
+  ASSERT_TRUE(t.at(static_cast<int64_t>(1e9 * 100.505), &T));
+  EXPECT_NEAR(T.translation().z(), 2.0 - 0.2 * 0.505, 1e-9);
+  EXPECT_FALSE(t.at(static_cast<int64_t>(1e9 * 99), &T));
+}
