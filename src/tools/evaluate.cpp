@@ -15,6 +15,7 @@
 #include <tf2_eigen/tf2_eigen.h>
 
 #include <fstream>
+#include <iomanip>
 #include <iostream>
 #include <set>
 
@@ -124,7 +125,8 @@ int main(int argc, char** argv) {
     const auto evals = evaluate(truth, estimates, opt);
     printEvaluation(evals, std::cout);
     if (!latency_ms.empty())
-      std::cout << "latency [ms] (publish - arrival of the cycle's last frame, "
+      std::cout << std::fixed << std::setprecision(1)
+                << "latency [ms] (publish - arrival of the cycle's last frame, "
                 << latency_ms.size() << " cycles): median " << percentile(latency_ms, 0.5)
                 << ", p95 " << percentile(latency_ms, 0.95) << ", p99 "
                 << percentile(latency_ms, 0.99) << "\n";

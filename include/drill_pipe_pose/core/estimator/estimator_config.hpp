@@ -1,0 +1,137 @@
+#pragma once
+// Configuration of the ROS-free pose estimator (issue 4). Nested structs with defaults; units in
+// the comments. The ROS node fills this from parameters; tests and benchmarks fill it directly.
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <string>
+
+#include "drill_pipe_pose/core/tool_joint.hpp"
+
+namespace drill_pipe_pose {
+
+/// Which pipeline PoseEstimator::process runs.
+enum class EstimatorMethod {
+  kOurs,            ///< carving + axis fit + profile registration (the project's method)
+  kThesisBaseline,  ///< the thesis's chapter 3.4 steps (comparison baseline, faithful not improved)
+};
+
+/// "ours" | "thesis_baseline" -> method; anything else throws InputError naming `source`.
+EstimatorMethod parseEstimatorMethod(const std::string& name, const std::string& source);
+/// "ours" | "thesis_baseline".
+const char* estimatorMethodName(EstimatorMethod m);
+
+struct EstimatorConfig {
+  EstimatorMethod method = EstimatorMethod::kOurs;
+
+  /// Nominal tool-joint geometry the models are built from [m, deg].
+  ToolJointDimensions dims;
+
+  /// Axis-aligned box in the world frame; points outside are dropped right after the cut-out.
+  struct WorkZone {
+    Eigen::Vector3d min = Eigen::Vector3d::Constant(-1e3);  ///< [m] world
+    Eigen::Vector3d max = Eigen::Vector3d::Constant(1e3);   ///< [m] world
+  } work_zone;
+
+  /// Per-camera cut-out of the depth pixels that register into a detection box.
+  struct CutOut {
+    double box_margin_px = 3.0;   ///< [colour px] a box is grown by this on every side
+    double min_range = 0.3;       ///< [m] depth (optical z) below this is ignored
+    double max_range = 12.0;      ///< [m] depth above this is ignored
+    float min_confidence = 0.0f;  ///< boxes below this detector confidence are ignored
+  } cutout;
+
+  /// Visual-hull carving across the cameras' boxes of the same label.
+  struct Carving {
+    /// A point is kept when it lies inside a same-label box in at least this many cameras
+    /// (itself included)... unless fewer cameras than this can judge it (then it is kept).
+    int min_cameras = 2;
+    /// ...and in at least this fraction of the cameras that can judge it (that have a box of the
+    /// label and see the point inside their colour image).
+    double vote_fraction = 0.75;
+    double margin_px = 8.0;  ///< [colour px] boxes grown by this when voting (box jitter)
+  } carving;
+
+  /// Point-set limits and the robust cylinder-axis fit (radius known: tool-joint OD / 2).
+  struct AxisFit {
+    size_t min_points = 40;   ///< fewer carved points: the end is invalid
+    size_t max_points = 400;  ///< larger sets are subsampled (deterministically) for the axis
+    int hypotheses = 12;      ///< local-PCA RANSAC hypotheses besides the global PCA
+    /// Directions sampled over the hemisphere (each scored with its circle centre; the best 4
+    /// are refined too); 0 = off.
+    int direction_samples = 64;
+    double neighbourhood = 0.25;     ///< [m] radius of the local PCA of a hypothesis
+    double inlier_threshold = 0.02;  ///< [m] |distance to axis - radius| of a cylinder inlier
+    int iterations = 8;              ///< Gauss-Newton iterations per hypothesis
+    uint32_t seed = 1;               ///< random sampling seed (deterministic)
+  } axis_fit;
+
+  /// Registration against the model profile (body of revolution, roll-free: 5 DoF).
+  struct ProfileFit {
+    double search_step = 0.003;  ///< [m] 1-DoF axial search step (coarse pass: 2.5 steps)
+    double truncation = 0.025;   ///< [m] robust cost: residuals beyond this cost as much as this
+    /// [m] only the part of the tong within (tong length - wear_margin) of the shoulder is trusted
+    /// in the refinement (worn joints are up to 20 mm shorter than nominal).
+    double wear_margin = 0.03;
+    int iterations = 12;  ///< IRLS Gauss-Newton iterations
+    double huber = 2.0;   ///< Huber threshold in units of the point's noise sigma
+    /// A detection's label is replaced when the other model's cost is lower by this fraction.
+    double label_margin = 0.15;
+    size_t search_points = 250;  ///< points used in the 1-DoF axial search
+    size_t max_points = 3000;    ///< larger end clouds are subsampled (deterministically)
+    /// Search the axial position with a 0.3 m longer tong (no pull from a worn joint's taper).
+    bool long_tong_search = false;
+    double max_rms = 0.02;             ///< [m] a fit with a larger inlier RMS residual is invalid
+    double min_inlier_fraction = 0.4;  ///< a fit with fewer inliers (of the points) is invalid
+  } profile_fit;
+
+  /// Free-space check against the depth images: a model surface where a camera saw through it is
+  /// penalised. Decides the axis direction, the label and the position along the axis together
+  /// with the profile cost (cost += weight * truncation^2 * violating fraction).
+  struct FreeSpace {
+    bool enabled = true;
+    bool decide_hypotheses = false;  ///< also in the axis-direction / label decision
+    bool axial_scan = true;          ///< scan the position along the axis with it
+    double weight = 3.0;
+    double margin = 0.03;  ///< [m] depth beyond the model surface that counts as seen-through
+    double sample_spacing = 0.012;  ///< [m] model surface samples
+    double axial_range = 0.04;      ///< [m] +- scan of the position along the axis
+    double axial_step = 0.002;      ///< [m]
+  } free_space;
+
+  /// Depth noise model (Fankhauser et al. 2015, head-on): sigma = scale * (1.5 - 0.5 z + 0.3 z^2)
+  /// [mm, z in m], at least min_sigma.
+  struct Noise {
+    double scale = 1.2;
+    double min_sigma = 0.003;  ///< [m]
+  } noise;
+
+  /// Covariance = Hessian^-1 * reduced chi^2 * inflation, plus per-axis floors (end frame).
+  struct Covariance {
+    double inflation = 4.0;          ///< correlated noise (neighbour pixels, per-camera offsets)
+    double min_lateral_std = 0.003;  ///< [m] added across the axis
+    double min_axial_std = 0.004;    ///< [m] added along the axis
+    double min_tilt_std = 0.006;     ///< [rad] added about the end's x and y
+    double roll_variance = 1e3;      ///< [rad^2] about the axis (unobservable)
+  } covariance;
+
+  /// thesis_baseline parameters (thesis chapter 3.4).
+  struct Baseline {
+    int layers = 3;                   ///< concatenated clouds (cycles)
+    double square_size = 0.20;        ///< [m] side of the square kept around the centroid
+    double band_min_z = 0.45;         ///< [m] world height band used for the centroid
+    double band_max_z = 1.5;          ///< [m]
+    int icp_iterations = 200;         ///< PCL ICP maximum iterations
+    int icp_runs = 10;                ///< ICP runs per cycle
+    double model_spacing = 0.006;     ///< [m] model cloud point spacing (uniform sampling)
+    double prealign_distance = 0.05;  ///< [m] re-pre-align when the model is further than this
+    size_t min_points = 30;           ///< fewer segmented points: invalid
+    double position_std = 0.03;       ///< [m] reported std per axis (the thesis reports none)
+    double tilt_std = 0.05;           ///< [rad] reported std about x and y
+  } baseline;
+};
+
+/// Checks ranges and consistency; throws InputError naming the key (e.g. "carving.min_cameras").
+void validateConfig(const EstimatorConfig& config);
+
+}  // namespace drill_pipe_pose

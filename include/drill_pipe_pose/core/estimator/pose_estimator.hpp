@@ -1,0 +1,86 @@
+#pragma once
+// The ROS-free pipe-end pose estimator (issue 4): N cameras' SensorFrames -> per-end 6-DoF poses
+// with covariance. The ROS node converts messages and TF into CameraInput and calls process();
+// tests and benchmarks call it directly.
+
+#include <Eigen/Geometry>
+#include <array>
+#include <deque>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "drill_pipe_pose/core/conventions.hpp"
+#include "drill_pipe_pose/core/estimator/estimator_config.hpp"
+#include "drill_pipe_pose/core/sensor_frame.hpp"
+
+namespace drill_pipe_pose {
+
+/// One camera's contribution to a cycle.
+struct CameraInput {
+  /// Depth (maybe cropped: depth_info.roi), both CameraInfos, boxes in colour-image pixels.
+  SensorFrameData frame;
+  /// Depth optical frame -> world at the frame's stamp (tf2 in the node).
+  Eigen::Isometry3d T_world_depth = Eigen::Isometry3d::Identity();
+  /// Colour optical <- depth optical (p_color = T_color_depth * p_depth), from TF.
+  Eigen::Isometry3d T_color_depth = Eigen::Isometry3d::Identity();
+};
+
+/// The estimate of one pipe end in one cycle.
+struct EndEstimate {
+  EndLabel label = EndLabel::kBoxEnd;
+  bool valid = false;
+  std::string reason;  ///< why not valid (empty when valid)
+  /// Pipe-end frame (DESIGN.md) in the world, canonical roll.
+  Eigen::Isometry3d T_world_end = Eigen::Isometry3d::Identity();
+  /// 6x6 covariance of (x, y, z [m], rotation about world x, y, z [rad]) as in
+  /// geometry_msgs/PoseWithCovariance; the variance about the pipe axis (roll) is large.
+  Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Identity();
+  double residual = 0.0;             ///< [m] RMS distance of the inlier points to the model surface
+  size_t points = 0;                 ///< points used in the final fit (inliers)
+  std::vector<std::string> cameras;  ///< cameras that contributed inlier points
+  /// True when the detections said the other label and the geometry overruled them.
+  bool label_corrected = false;
+};
+
+struct CycleTiming {
+  double cutout_ms = 0, fusion_ms = 0, segmentation_ms = 0, registration_ms = 0, total_ms = 0;
+};
+
+struct CycleResult {
+  std::array<EndEstimate, kNumEnds> ends;  ///< [0] box_end, [1] pin_end
+  CycleTiming timing;
+  std::vector<std::string> camera_errors;  ///< bad inputs, one line per skipped camera
+  std::vector<std::string> cameras_used;   ///< cameras whose frames entered this cycle
+  /// Debug clouds [m, world]: all fused (carved) points, and the points of each end's final fit.
+  std::vector<Eigen::Vector3f> fused;
+  std::array<std::vector<Eigen::Vector3f>, kNumEnds> segmented;
+  const EndEstimate& end(EndLabel l) const { return ends[static_cast<int>(l)]; }
+};
+
+/// The pipeline. Not thread-safe (one instance per thread); keeps state only for the
+/// thesis_baseline (its concatenated layers and last model poses).
+class PoseEstimator {
+ public:
+  /// Validates the configuration (throws InputError naming the key) and builds the models.
+  explicit PoseEstimator(const EstimatorConfig& config);
+  ~PoseEstimator();
+  PoseEstimator(const PoseEstimator&) = delete;
+  PoseEstimator& operator=(const PoseEstimator&) = delete;
+
+  /// One cycle. A camera with bad input (size/intrinsics/roi/encoding) is skipped and named in
+  /// camera_errors; the others go on. Never throws on bad data.
+  CycleResult process(const std::vector<CameraInput>& cameras);
+
+  /// Forgets the thesis_baseline's layers and model poses.
+  void reset();
+
+  const EstimatorConfig& config() const { return config_; }
+
+ private:
+  struct Impl;
+  EstimatorConfig config_;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace drill_pipe_pose

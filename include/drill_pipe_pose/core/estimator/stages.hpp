@@ -1,0 +1,174 @@
+#pragma once
+// The stages of the estimator pipeline, exposed for unit tests and tools. Everything is in the
+// world frame [m] unless the name says otherwise.
+
+#include <Eigen/Geometry>
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "drill_pipe_pose/core/camera_model.hpp"
+#include "drill_pipe_pose/core/conventions.hpp"
+#include "drill_pipe_pose/core/depth_image.hpp"
+#include "drill_pipe_pose/core/estimator/estimator_config.hpp"
+#include "drill_pipe_pose/core/sensor_frame.hpp"
+#include "drill_pipe_pose/core/tool_joint.hpp"
+
+namespace drill_pipe_pose {
+
+/// A cut-out point.
+struct CloudPoint {
+  Eigen::Vector3f p_world;  ///< [m] world
+  float sigma = 0.01f;      ///< [m] expected depth-noise std of this point
+  uint16_t camera = 0;      ///< index of the camera (in the cycle's camera list)
+};
+
+/// A validated camera of one cycle: models, transforms, boxes (already confidence-filtered).
+struct CycleCamera {
+  std::string name;
+  PinholeCamera depth;
+  PinholeCamera color;
+  DepthImage image;
+  Eigen::Isometry3d T_world_depth = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d T_color_depth = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d T_color_world = Eigen::Isometry3d::Identity();  ///< derived
+  std::vector<DetectionBox> boxes;
+  /// Whether this camera has at least one box of each label.
+  std::array<bool, kNumEnds> has_label{{false, false}};
+};
+
+/// Builds a CycleCamera from one input; throws InputError naming the camera and the field.
+CycleCamera makeCycleCamera(const SensorFrameData& frame, const Eigen::Isometry3d& T_world_depth,
+                            const Eigen::Isometry3d& T_color_depth, float min_confidence);
+
+/// The depth-pixel rectangle [u0, u1) x [v0, v1) (delivered depth image) that can register into
+/// colour box `box` grown by margin_px for depths in [min_range, max_range]: the box's corner
+/// rays at both ranges projected into the depth image. False when it misses the image.
+bool depthRectOfBox(const CycleCamera& cam, const DetectionBox& box, double margin_px,
+                    double min_range, double max_range, std::array<int, 4>* rect);
+
+/// Per-camera cut-out: every valid depth pixel in the frustum of a box whose registration into
+/// the colour image falls inside that box (grown by cfg.box_margin_px), to world, inside the work
+/// zone. Each pixel is emitted at most once per label (duplicate boxes). Appends to out[label].
+void cutOutCamera(const CycleCamera& cam, uint16_t camera_index, const EstimatorConfig& config,
+                  std::array<std::vector<CloudPoint>, kNumEnds>* out);
+
+/// Depth noise std [m] at depth z [m] (config.noise).
+float depthSigma(const EstimatorConfig::Noise& noise, double z);
+
+/// Visual-hull carving of the points of `label` (see EstimatorConfig::Carving).
+std::vector<CloudPoint> carve(const std::vector<CloudPoint>& points, EndLabel label,
+                              const std::vector<CycleCamera>& cameras,
+                              const EstimatorConfig::Carving& config);
+
+/// An infinite line: a point on it and a unit direction (sign arbitrary).
+struct AxisLine {
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();
+  Eigen::Vector3d direction = Eigen::Vector3d::UnitZ();
+};
+
+/// Result of the robust known-radius cylinder fit.
+struct AxisFitResult {
+  bool ok = false;
+  AxisLine axis;
+  size_t inliers = 0;
+  double rms = 0.0;  ///< [m] RMS of |distance to axis - radius| over inliers
+};
+
+/// Robust cylinder-axis fit with a known radius [m]: global-PCA and local-PCA (RANSAC) hypotheses,
+/// each refined by Gauss-Newton with Tukey weights, best truncated cost wins.
+AxisFitResult fitCylinderAxis(const std::vector<Eigen::Vector3f>& points, double radius,
+                              const EstimatorConfig::AxisFit& config);
+
+/// A tool-joint model as an open 2D profile (z, r) in its pipe-end frame, with the tube extended
+/// beyond the model's truncation, an exact distance and a grid of distances for coarse searches.
+class ProfileModel {
+ public:
+  ProfileModel() = default;
+  ProfileModel(EndLabel label, const ToolJointDimensions& dims);
+
+  EndLabel label() const { return label_; }
+  /// Distance [m] from (z, r) to the profile; gradient (unit, in (z, r)) of the distance when
+  /// `grad` is given, and the signed-free distance along it: d = grad . ((z, r) - closest).
+  double distance(double z, double r, Eigen::Vector2d* grad = nullptr) const;
+  /// Fast approximate distance from the grid (clamped outside it) [m].
+  float coarseDistance(double z, double r) const;
+  /// z [m] below which the model is not trusted (worn tong length): -(tong length - margin).
+  double trustedMinZ(double wear_margin) const { return -(tong_length_ - wear_margin); }
+  /// z range of the tool joint proper (box face / pin nose to the end of the taper) [m].
+  double zMin() const { return z_min_; }
+  double zMax() const { return z_max_; }
+
+ private:
+  struct Edge {
+    Eigen::Vector2d a, b;
+  };
+  EndLabel label_ = EndLabel::kBoxEnd;
+  std::vector<Edge> edges_;
+  double tong_length_ = 0.0, z_min_ = 0.0, z_max_ = 0.0;
+  // Distance grid.
+  double g_z0_ = 0, g_r0_ = 0, g_res_ = 0.0025;
+  int g_nz_ = 0, g_nr_ = 0;
+  std::vector<float> grid_;
+  /// Per grid cell, the edges nearest to its centre and corners (-1 = none): exact distances at
+  /// a fraction of the cost of visiting every edge.
+  std::vector<std::array<int8_t, 4>> cell_edges_;
+  std::vector<int8_t> all_edges_;
+  double exactDistance(double z, double r, Eigen::Vector2d* grad, const int8_t* edges,
+                       int n_edges) const;
+};
+
+/// Result of the profile registration of one hypothesis.
+struct ProfileFitResult {
+  bool ok = false;
+  EndLabel label = EndLabel::kBoxEnd;
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();  ///< [m] world, on the axis at the shoulder
+  Eigen::Vector3d z = Eigen::Vector3d::UnitZ();      ///< unit axis (pipe-end z) in the world
+  double cost = 0.0;  ///< mean truncated squared distance over all points [m^2]
+  double rms = 0.0;   ///< [m] RMS distance of the inliers
+  size_t inliers = 0;
+  Eigen::Matrix<double, 5, 5> covariance = Eigen::Matrix<double, 5, 5>::Zero();
+  Eigen::Matrix<double, 3, 5> basis;  ///< world directions of params: e1, e2 (lateral), z
+  std::vector<uint8_t> inlier_mask;
+};
+
+/// For both directions of `axis`: a 1-DoF search along it for the shoulder position and a short
+/// IRLS refinement; the better one is refined fully (5 DoF: 2 tilt, 3 position) against `model`.
+/// Points [m, world] with noise sigmas [m].
+ProfileFitResult fitProfile(const std::vector<Eigen::Vector3f>& points,
+                            const std::vector<float>& sigmas, const AxisLine& axis,
+                            const ProfileModel& model, const EstimatorConfig::ProfileFit& config);
+
+/// IRLS refinement of the 5 DoF from (origin, z_axis) [world] for `iterations` iterations;
+/// `lock_axial` keeps the origin's position along the axis (the Hessian still has that DoF).
+ProfileFitResult refineProfile(const std::vector<Eigen::Vector3f>& points,
+                               const std::vector<float>& sigmas, const Eigen::Vector3d& origin,
+                               const Eigen::Vector3d& z_axis, const ProfileModel& model,
+                               const EstimatorConfig::ProfileFit& config, int iterations,
+                               bool lock_axial = false);
+
+/// Both directions of `axis`, each searched and refined: [0] along +direction, [1] along -.
+/// The 1-DoF search uses `search_model` when given (e.g. the model with a long tong, so that the
+/// taper of a worn joint - up to 20 mm closer to the shoulder - cannot pull the search).
+std::array<ProfileFitResult, 2> fitProfileHypotheses(const std::vector<Eigen::Vector3f>& points,
+                                                     const std::vector<float>& sigmas,
+                                                     const AxisLine& axis,
+                                                     const ProfileModel& model,
+                                                     const EstimatorConfig::ProfileFit& config,
+                                                     const ProfileModel* search_model = nullptr);
+
+/// Free-space check of a model pose: the fraction of the model's camera-facing surface samples
+/// (end frame, with outward normals) at T_world_end that fall on depth pixels measured more than
+/// `margin` [m] BEHIND them (the camera saw through where the model claims a surface), among the
+/// samples whose pixel is within +-margin or behind. `judged` receives that count.
+double freeSpaceViolation(const std::vector<OrientedPoint>& samples,
+                          const Eigen::Isometry3d& T_world_end,
+                          const std::vector<CycleCamera>& cameras, double margin,
+                          size_t* judged = nullptr);
+
+/// Mean truncated squared distance [m^2] of the points to `model` placed at (origin, z).
+double profileCost(const std::vector<Eigen::Vector3f>& points, const ProfileModel& model,
+                   const Eigen::Vector3d& origin, const Eigen::Vector3d& z, double truncation);
+
+}  // namespace drill_pipe_pose

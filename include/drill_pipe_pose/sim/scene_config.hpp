@@ -1,0 +1,118 @@
+#pragma once
+// Scene files (config/scenes/<name>.yaml): what a scenario contains, independent of the rig
+// (config/rigs/*.yaml) and of the sensor profile. Schema (every key type-checked; errors name the
+// file, the key path and what was expected):
+//
+//   name: thesis_vertical
+//   description: "..."                       # optional
+//   work_zone: {min: [x, y, z], max: [x, y, z]}   # [m] world, axis-aligned
+//   room: {size: [10, 10, 5.5], floor: concrete, walls: wall_paint}   # optional: floor z = 0
+//                                            # and four walls of the cell [0, sx] x [0, sy]
+//   light: {direction: [0.3, 0.2, -1], ambient: 0.35}                 # optional
+//   materials:                               # optional, added to / overriding the built-ins
+//     my_paint: {reflectivity: 0.6, bgr: [20, 200, 230]}
+//   objects:                                 # optional clutter
+//     - {name: barrel, type: cylinder, radius: 0.29, height: 0.88, pose: POSE, material: M}
+//     - {name: crate, type: box, size: [0.6, 0.4, 0.5], pose: POSE, material: M}   # pose = centre
+//     - {name: catwalk, type: plane, size: [2, 10], pose: POSE, material: M}  # 0 = unbounded
+//   pipes:
+//     - name: box_sample
+//       type: tool_joint            # a single tool joint with a short tube (lab sample) ...
+//       end: box_end                # box_end | pin_end
+//       pose: POSE                  # T_world_end: the pipe-end frame of DESIGN.md
+//       tube_length: 0.25           # optional [m]: tube left below the taper
+//     - name: drill_pipe
+//       type: pipe                  # ... or a whole pipe: box end, tube, pin end
+//       pose: POSE                  # T_world_end of its BOX end; the pin end lies `length`
+//       length: 6.0                 # [m] further along -z, its z pointing the other way
+//       dimensions: {tool_joint_od: 0.1683, ...}   # optional, any ToolJointDimensions field
+//       material: yellow_paint
+//       mud: true                   # optional (the sensor profile may still switch mud off)
+//       ground_truth: true          # optional; false: a distractor (rendered, detected, not
+//                                   # in groundTruth())
+//       motion: MOTION              # optional
+//
+//   POSE   = {translation: [x, y, z], rpy_deg: [roll, pitch, yaw]}   # R = Rz(yaw) Ry(pitch)
+//   Rx(roll)
+//          | {translation: [...], quaternion: [x, y, z, w]}
+//          | {translation: [...], z_axis: [x, y, z]}                  # canonical roll
+//   MOTION = {velocity: [vx, vy, vz], period_s: 5,                    # [m/s]; wraps every period
+//             swing: {amplitude_deg: 3, period_s: 4, axis: [1, 0, 0], pivot_offset: [0, 0, 4]},
+//             random_poses: {count: 60, interval_s: 2, seed: 7, centre: [x, y],
+//                            half_extent: [1, 1], tilt_deg: [0, 90], hanging_fraction: 0.3,
+//                            clearance: [0.05, 1.0], min_separation: 1.0}}
+//
+// random_poses (tool_joint only) draws `count` poses held `interval_s` each (cycling): position
+// uniform in centre +- half_extent, tilt from vertical uniform in tilt_deg, any yaw and roll;
+// a pin end hangs (points down, tilt <= 15 deg) with probability hanging_fraction; the height
+// puts the lowest point of the joint `clearance` above the floor; origins keep min_separation
+// [m] (horizontal) from earlier random-pose pipes at the same index. Seeded by the file's seed
+// only, so the ground truth does not depend on the simulator seed.
+
+#include <Eigen/Geometry>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "drill_pipe_pose/core/conventions.hpp"
+#include "drill_pipe_pose/core/tool_joint.hpp"
+#include "drill_pipe_pose/sim/scene.hpp"
+#include "drill_pipe_pose/sim/sensor_model.hpp"
+
+namespace drill_pipe_pose::sim {
+
+/// Axis-aligned box in the world frame [m]: where pipe ends are expected.
+struct WorkZone {
+  Eigen::Vector3d min = Eigen::Vector3d::Zero();
+  Eigen::Vector3d max = Eigen::Vector3d::Zero();
+  bool contains(const Eigen::Vector3d& p_world) const {
+    return (p_world.array() >= min.array()).all() && (p_world.array() <= max.array()).all();
+  }
+};
+
+/// A clutter / environment object of a scene file.
+struct ObjectConfig {
+  std::string name;
+  Shape shape;  ///< local frame as Shape's factory functions define it
+  std::string material;
+  Trajectory motion;  ///< motion.T_world_anchor = the object's pose
+};
+
+/// A pipe of a scene file: a single tool joint or a whole pipe.
+struct PipeConfig {
+  enum class Kind { kToolJoint, kPipe };
+  std::string name;
+  Kind kind = Kind::kToolJoint;
+  EndLabel end = EndLabel::kBoxEnd;  ///< tool_joint only
+  ToolJointDimensions dims;          ///< nominal
+  double length = 9.0;               ///< [m] whole pipe: box end face to pin shoulder
+  std::string material = "yellow_paint";
+  bool mud = true;
+  bool ground_truth = true;  ///< false: a distractor, rendered and detected but not scored
+  Trajectory motion;         ///< T_world_anchor = T_world_end (tool_joint) / T_world_box_end (pipe)
+};
+
+struct SceneConfig {
+  std::string name;
+  std::string description;
+  WorkZone work_zone;
+  Light light;
+  std::map<std::string, Material> materials;  ///< built-ins plus the file's
+  std::vector<ObjectConfig> objects;          ///< room included
+  std::vector<PipeConfig> pipes;
+};
+
+/// The built-in materials (concrete, wall_paint, yellow_paint, grey_paint, dark_steel,
+/// rusty_steel, barrel_blue, cardboard, hi_vis, catwalk_steel, black_rubber).
+std::map<std::string, Material> builtinMaterials();
+
+/// Loads and validates a scene file; InputError names the file, the key and what was expected.
+SceneConfig loadSceneConfig(const std::string& path);
+/// The same from YAML text; `source` names it in errors.
+SceneConfig parseSceneConfig(const std::string& yaml_text, const std::string& source);
+
+/// Builds the rendered scene: nominal tool joints worn as `effects` says (seeded by `seed` and
+/// the pipe index), mud patches, whole pipes split into box joint + tube + pin joint.
+Scene buildScene(const SceneConfig& config, const SensorEffects& effects, uint32_t seed);
+
+}  // namespace drill_pipe_pose::sim

@@ -1,0 +1,260 @@
+// Estimator front end: configuration checks, per-camera validation, box frustum, cut-out and
+// visual-hull carving. No PCL here (kept light to compile).
+
+#include <algorithm>
+#include <cmath>
+
+#include "drill_pipe_pose/core/errors.hpp"
+#include "drill_pipe_pose/core/estimator/stages.hpp"
+
+namespace drill_pipe_pose {
+
+EstimatorMethod parseEstimatorMethod(const std::string& name, const std::string& source) {
+  if (name == "ours") return EstimatorMethod::kOurs;
+  if (name == "thesis_baseline") return EstimatorMethod::kThesisBaseline;
+  fail(source, ": method = \"", name, "\" is not one of \"ours\", \"thesis_baseline\"");
+}
+
+const char* estimatorMethodName(EstimatorMethod m) {
+  return m == EstimatorMethod::kOurs ? "ours" : "thesis_baseline";
+}
+
+void validateConfig(const EstimatorConfig& c) {
+  auto finite_positive = [](double v, const char* key) {
+    if (!(v > 0.0) || !std::isfinite(v)) fail("estimator config: ", key, " = ", v, " must be > 0");
+  };
+  auto non_negative = [](double v, const char* key) {
+    if (!(v >= 0.0) || !std::isfinite(v))
+      fail("estimator config: ", key, " = ", v, " must be >= 0");
+  };
+  for (int i = 0; i < 3; ++i)
+    if (!(c.work_zone.min[i] < c.work_zone.max[i]))
+      fail("estimator config: work_zone.min[", i, "] = ", c.work_zone.min[i],
+           " must be < work_zone.max[", i, "] = ", c.work_zone.max[i]);
+  // Throws naming the bad dimension.
+  toolJointProfile(EndLabel::kBoxEnd, c.dims);
+  toolJointProfile(EndLabel::kPinEnd, c.dims);
+  non_negative(c.cutout.box_margin_px, "cutout.box_margin_px");
+  finite_positive(c.cutout.min_range, "cutout.min_range");
+  if (!(c.cutout.max_range > c.cutout.min_range))
+    fail("estimator config: cutout.max_range = ", c.cutout.max_range,
+         " must be > cutout.min_range = ", c.cutout.min_range);
+  if (c.carving.min_cameras < 1)
+    fail("estimator config: carving.min_cameras = ", c.carving.min_cameras, " must be >= 1");
+  if (!(c.carving.vote_fraction >= 0.0 && c.carving.vote_fraction <= 1.0))
+    fail("estimator config: carving.vote_fraction = ", c.carving.vote_fraction,
+         " must be in [0, 1]");
+  non_negative(c.carving.margin_px, "carving.margin_px");
+  if (c.axis_fit.min_points < 10)
+    fail("estimator config: axis_fit.min_points = ", c.axis_fit.min_points, " must be >= 10");
+  if (c.axis_fit.max_points < 20)
+    fail("estimator config: axis_fit.max_points = ", c.axis_fit.max_points, " must be >= 20");
+  if (c.profile_fit.max_points < c.axis_fit.min_points)
+    fail("estimator config: profile_fit.max_points = ", c.profile_fit.max_points,
+         " must be >= axis_fit.min_points");
+  if (c.axis_fit.hypotheses < 0)
+    fail("estimator config: axis_fit.hypotheses = ", c.axis_fit.hypotheses, " must be >= 0");
+  finite_positive(c.axis_fit.neighbourhood, "axis_fit.neighbourhood");
+  finite_positive(c.axis_fit.inlier_threshold, "axis_fit.inlier_threshold");
+  if (c.axis_fit.iterations < 1)
+    fail("estimator config: axis_fit.iterations = ", c.axis_fit.iterations, " must be >= 1");
+  finite_positive(c.profile_fit.search_step, "profile_fit.search_step");
+  finite_positive(c.profile_fit.truncation, "profile_fit.truncation");
+  non_negative(c.profile_fit.wear_margin, "profile_fit.wear_margin");
+  if (c.profile_fit.iterations < 1)
+    fail("estimator config: profile_fit.iterations = ", c.profile_fit.iterations, " must be >= 1");
+  finite_positive(c.profile_fit.huber, "profile_fit.huber");
+  non_negative(c.profile_fit.label_margin, "profile_fit.label_margin");
+  if (c.profile_fit.search_points < 20)
+    fail("estimator config: profile_fit.search_points = ", c.profile_fit.search_points,
+         " must be >= 20");
+  finite_positive(c.profile_fit.max_rms, "profile_fit.max_rms");
+  non_negative(c.profile_fit.min_inlier_fraction, "profile_fit.min_inlier_fraction");
+  finite_positive(c.noise.scale, "noise.scale");
+  finite_positive(c.noise.min_sigma, "noise.min_sigma");
+  finite_positive(c.covariance.inflation, "covariance.inflation");
+  non_negative(c.covariance.min_lateral_std, "covariance.min_lateral_std");
+  non_negative(c.covariance.min_axial_std, "covariance.min_axial_std");
+  non_negative(c.covariance.min_tilt_std, "covariance.min_tilt_std");
+  finite_positive(c.covariance.roll_variance, "covariance.roll_variance");
+  if (c.baseline.layers < 1)
+    fail("estimator config: baseline.layers = ", c.baseline.layers, " must be >= 1");
+  finite_positive(c.baseline.square_size, "baseline.square_size");
+  if (!(c.baseline.band_max_z > c.baseline.band_min_z))
+    fail("estimator config: baseline.band_max_z must be > baseline.band_min_z");
+  if (c.baseline.icp_iterations < 1 || c.baseline.icp_runs < 1)
+    fail("estimator config: baseline.icp_iterations and baseline.icp_runs must be >= 1");
+  finite_positive(c.baseline.model_spacing, "baseline.model_spacing");
+  finite_positive(c.baseline.prealign_distance, "baseline.prealign_distance");
+}
+
+namespace {
+
+bool finiteIsometry(const Eigen::Isometry3d& T) {
+  return T.matrix().allFinite();
+}
+
+bool insideBox(const DetectionBox& b, const Eigen::Vector2d& uv, double margin) {
+  return uv.x() >= b.x_min - margin && uv.x() <= b.x_max + margin && uv.y() >= b.y_min - margin &&
+         uv.y() <= b.y_max + margin;
+}
+
+}  // namespace
+
+CycleCamera makeCycleCamera(const SensorFrameData& frame, const Eigen::Isometry3d& T_world_depth,
+                            const Eigen::Isometry3d& T_color_depth, float min_confidence) {
+  CycleCamera cam;
+  cam.name = frame.camera;
+  const std::string& n = frame.camera;
+  cam.depth = PinholeCamera::fromCameraInfo(frame.depth_info, n + " depth_info");
+  cam.color = PinholeCamera::fromCameraInfo(frame.color_info, n + " color_info");
+  if (frame.depth.width == 0 || frame.depth.height == 0) fail(n, " depth: the image is empty");
+  validateDepthImage(frame.depth, cam.depth, n + " depth");
+  cam.image = frame.depth;
+  if (!finiteIsometry(T_world_depth)) fail(n, ": T_world_depth is not finite");
+  if (!finiteIsometry(T_color_depth)) fail(n, ": T_color_depth is not finite");
+  cam.T_world_depth = T_world_depth;
+  cam.T_color_depth = T_color_depth;
+  cam.T_color_world = T_color_depth * T_world_depth.inverse();
+  const double W = cam.color.imageWidth(), H = cam.color.imageHeight();
+  for (size_t i = 0; i < frame.boxes.size(); ++i) {
+    DetectionBox b = frame.boxes[i];
+    if (!std::isfinite(b.x_min) || !std::isfinite(b.x_max) || !std::isfinite(b.y_min) ||
+        !std::isfinite(b.y_max) || !(b.x_max > b.x_min) || !(b.y_max > b.y_min))
+      fail(n, " boxes[", i, "]: (", b.x_min, ", ", b.y_min, ") - (", b.x_max, ", ", b.y_max,
+           ") is not finite or inverted");
+    if (b.x_max < -0.5 || b.y_max < -0.5 || b.x_min > W - 0.5 || b.y_min > H - 0.5)
+      fail(n, " boxes[", i, "]: (", b.x_min, ", ", b.y_min, ") - (", b.x_max, ", ", b.y_max,
+           ") lies outside the ", W, "x", H, " colour image");
+    const int l = static_cast<int>(b.label);
+    if (l < 0 || l >= kNumEnds) fail(n, " boxes[", i, "]: unknown label ", l);
+    if (b.confidence < min_confidence) continue;
+    cam.has_label[l] = true;
+    cam.boxes.push_back(b);
+  }
+  return cam;
+}
+
+bool depthRectOfBox(const CycleCamera& cam, const DetectionBox& box, double margin_px,
+                    double min_range, double max_range, std::array<int, 4>* rect) {
+  const Eigen::Isometry3d T_depth_color = cam.T_color_depth.inverse();
+  double u_min = 1e9, v_min = 1e9, u_max = -1e9, v_max = -1e9;
+  int n = 0;
+  for (double u : {box.x_min - margin_px, box.x_max + margin_px})
+    for (double v : {box.y_min - margin_px, box.y_max + margin_px})
+      for (double z : {min_range, max_range}) {
+        Eigen::Vector2d uv;
+        if (!cam.depth.project(T_depth_color * cam.color.backProject(u, v, z), &uv)) continue;
+        ++n;
+        u_min = std::min(u_min, uv.x());
+        u_max = std::max(u_max, uv.x());
+        v_min = std::min(v_min, uv.y());
+        v_max = std::max(v_max, uv.y());
+      }
+  if (n == 0) return false;
+  const int W = static_cast<int>(cam.depth.imageWidth()),
+            H = static_cast<int>(cam.depth.imageHeight());
+  (*rect)[0] = std::max(0, static_cast<int>(std::floor(u_min)) - 1);
+  (*rect)[1] = std::max(0, static_cast<int>(std::floor(v_min)) - 1);
+  (*rect)[2] = std::min(W, static_cast<int>(std::ceil(u_max)) + 2);
+  (*rect)[3] = std::min(H, static_cast<int>(std::ceil(v_max)) + 2);
+  return (*rect)[0] < (*rect)[2] && (*rect)[1] < (*rect)[3];
+}
+
+float depthSigma(const EstimatorConfig::Noise& noise, double z) {
+  const double mm = 1.5 - 0.5 * z + 0.3 * z * z;
+  return static_cast<float>(std::max(noise.min_sigma, noise.scale * mm * 1e-3));
+}
+
+void cutOutCamera(const CycleCamera& cam, uint16_t camera_index, const EstimatorConfig& config,
+                  std::array<std::vector<CloudPoint>, kNumEnds>* out) {
+  const DepthProjector projector(cam.depth);
+  const Eigen::Matrix3f R_cd = cam.T_color_depth.linear().cast<float>();
+  const Eigen::Vector3f t_cd = cam.T_color_depth.translation().cast<float>();
+  const Eigen::Matrix3f R_wd = cam.T_world_depth.linear().cast<float>();
+  const Eigen::Vector3f t_wd = cam.T_world_depth.translation().cast<float>();
+  const Eigen::Vector3f zone_min = config.work_zone.min.cast<float>();
+  const Eigen::Vector3f zone_max = config.work_zone.max.cast<float>();
+  const float fx = cam.color.fx(), fy = cam.color.fy();
+  const float cx = cam.color.cx() - cam.color.offsetX(), cy = cam.color.cy() - cam.color.offsetY();
+  const double m = config.cutout.box_margin_px;
+  const float zmin = config.cutout.min_range, zmax = config.cutout.max_range;
+  for (size_t k = 0; k < cam.boxes.size(); ++k) {
+    const DetectionBox& b = cam.boxes[k];
+    std::array<int, 4> r;
+    if (!depthRectOfBox(cam, b, m, zmin, zmax, &r)) continue;
+    const int label = static_cast<int>(b.label);
+    std::vector<CloudPoint>& dst = (*out)[label];
+    projector.forEachPoint(
+        cam.image, r[0], r[1], r[2], r[3], [&](int, int, const Eigen::Vector3f& p) {
+          if (p.z() < zmin || p.z() > zmax) return;
+          const Eigen::Vector3f pc = R_cd * p + t_cd;
+          if (!(pc.z() > 0.0f)) return;
+          const Eigen::Vector2d uv(fx * pc.x() / pc.z() + cx, fy * pc.y() / pc.z() + cy);
+          if (!insideBox(b, uv, m)) return;
+          for (size_t j = 0; j < k; ++j)  // emitted by an earlier box already
+            if (cam.boxes[j].label == b.label && insideBox(cam.boxes[j], uv, m)) return;
+          const Eigen::Vector3f pw = R_wd * p + t_wd;
+          if ((pw.array() < zone_min.array()).any() || (pw.array() > zone_max.array()).any())
+            return;
+          dst.push_back({pw, depthSigma(config.noise, p.z()), camera_index});
+        });
+  }
+}
+
+std::vector<CloudPoint> carve(const std::vector<CloudPoint>& points, EndLabel label,
+                              const std::vector<CycleCamera>& cameras,
+                              const EstimatorConfig::Carving& config) {
+  const int l = static_cast<int>(label);
+  struct Judge {
+    Eigen::Matrix3f R;
+    Eigen::Vector3f t;
+    float fx, fy, cx, cy, w, h;
+    std::vector<const DetectionBox*> boxes;
+  };
+  std::vector<Judge> judges(cameras.size());
+  std::vector<bool> can_judge(cameras.size(), false);
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    const CycleCamera& cam = cameras[c];
+    if (!cam.has_label[l]) continue;
+    can_judge[c] = true;
+    Judge& j = judges[c];
+    j.R = cam.T_color_world.linear().cast<float>();
+    j.t = cam.T_color_world.translation().cast<float>();
+    j.fx = cam.color.fx();
+    j.fy = cam.color.fy();
+    j.cx = cam.color.cx() - cam.color.offsetX();
+    j.cy = cam.color.cy() - cam.color.offsetY();
+    j.w = cam.color.imageWidth();
+    j.h = cam.color.imageHeight();
+    for (const auto& b : cam.boxes)
+      if (b.label == label) j.boxes.push_back(&b);
+  }
+  const float margin = config.margin_px;
+  std::vector<CloudPoint> kept;
+  kept.reserve(points.size());
+  for (const CloudPoint& p : points) {
+    int voters = 1, inside = 1;
+    for (size_t c = 0; c < cameras.size(); ++c) {
+      if (c == p.camera || !can_judge[c]) continue;
+      const Judge& j = judges[c];
+      const Eigen::Vector3f pc = j.R * p.p_world + j.t;
+      if (!(pc.z() > 0.0f)) continue;
+      const float u = j.fx * pc.x() / pc.z() + j.cx, v = j.fy * pc.y() / pc.z() + j.cy;
+      if (u < -0.5f || v < -0.5f || u > j.w - 0.5f || v > j.h - 0.5f) continue;
+      ++voters;
+      for (const DetectionBox* b : j.boxes)
+        if (u >= b->x_min - margin && u <= b->x_max + margin && v >= b->y_min - margin &&
+            v <= b->y_max + margin) {
+          ++inside;
+          break;
+        }
+    }
+    if (voters < config.min_cameras ||
+        (inside >= config.min_cameras && inside >= config.vote_fraction * voters))
+      kept.push_back(p);
+  }
+  return kept;
+}
+
+}  // namespace drill_pipe_pose

@@ -1,0 +1,574 @@
+// Estimator geometry: robust known-radius cylinder-axis fit, the tool-joint profile model and the
+// roll-free (5-DoF) profile registration. Eigen only.
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include "drill_pipe_pose/core/errors.hpp"
+#include "drill_pipe_pose/core/estimator/stages.hpp"
+
+namespace drill_pipe_pose {
+
+namespace {
+
+/// Two unit vectors completing `d` to an orthonormal basis.
+void orthoBasis(const Eigen::Vector3d& d, Eigen::Vector3d* e1, Eigen::Vector3d* e2) {
+  const Eigen::Vector3d a =
+      std::abs(d.x()) < 0.8 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+  *e1 = (a - a.dot(d) * d).normalized();
+  *e2 = d.cross(*e1);
+}
+
+/// Centroid and major principal direction of points[idx].
+bool pca(const std::vector<Eigen::Vector3d>& pts, const std::vector<size_t>& idx,
+         Eigen::Vector3d* centroid, Eigen::Vector3d* major) {
+  if (idx.size() < 3) return false;
+  Eigen::Vector3d m = Eigen::Vector3d::Zero();
+  for (size_t i : idx) m += pts[i];
+  m /= static_cast<double>(idx.size());
+  Eigen::Matrix3d C = Eigen::Matrix3d::Zero();
+  for (size_t i : idx) {
+    const Eigen::Vector3d q = pts[i] - m;
+    C += q * q.transpose();
+  }
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(C);
+  *centroid = m;
+  *major = es.eigenvectors().col(2).normalized();
+  return std::isfinite(major->x());
+}
+
+/// Kasa circle fit of the points projected on the plane normal to d: returns the centre (on the
+/// plane through `origin`) when the fitted radius is plausible.
+bool circleCentre(const std::vector<Eigen::Vector3d>& pts, const std::vector<size_t>& idx,
+                  const Eigen::Vector3d& origin, const Eigen::Vector3d& d, double radius,
+                  Eigen::Vector3d* centre) {
+  Eigen::Vector3d e1, e2;
+  orthoBasis(d, &e1, &e2);
+  Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d b = Eigen::Vector3d::Zero();
+  for (size_t i : idx) {
+    const Eigen::Vector3d q = pts[i] - origin;
+    const double x = q.dot(e1), y = q.dot(e2);
+    const Eigen::Vector3d row(x, y, 1.0);
+    A += row * row.transpose();
+    b += row * (x * x + y * y);
+  }
+  const Eigen::Vector3d s = A.ldlt().solve(b);  // x^2 + y^2 = 2 a x + 2 b y + c
+  const double a = s[0] / 2, bb = s[1] / 2, r2 = s[2] + a * a + bb * bb;
+  if (!std::isfinite(r2) || r2 <= 0) return false;
+  const double r = std::sqrt(r2);
+  if (r < 0.3 * radius || r > 3.0 * radius) return false;
+  *centre = origin + a * e1 + bb * e2;
+  return true;
+}
+
+/// Gauss-Newton with Tukey weights on |distance to axis| - radius. Returns the truncated cost.
+double refineCylinder(const std::vector<Eigen::Vector3d>& pts, double radius, double tukey_c,
+                      int iterations, AxisLine* axis) {
+  Eigen::Vector3d c = axis->point, d = axis->direction.normalized();
+  for (int it = 0; it < iterations; ++it) {
+    Eigen::Vector3d e1, e2;
+    orthoBasis(d, &e1, &e2);
+    Eigen::Matrix4d H = Eigen::Matrix4d::Zero();
+    Eigen::Vector4d g = Eigen::Vector4d::Zero();
+    double t_sum = 0, w_sum = 0;
+    for (const auto& p : pts) {
+      const Eigen::Vector3d q = p - c;
+      const double t = q.dot(d);
+      const Eigen::Vector3d qp = q - t * d;
+      const double rho = qp.norm();
+      if (rho < 1e-9) continue;
+      const double res = rho - radius;
+      if (std::abs(res) >= tukey_c) continue;
+      const double k = 1.0 - (res / tukey_c) * (res / tukey_c);
+      const double w = k * k;
+      const Eigen::Vector3d u = qp / rho;
+      const Eigen::Vector4d J(-u.dot(e1), -u.dot(e2), -t * u.dot(e1), -t * u.dot(e2));
+      H += w * J * J.transpose();
+      g += w * J * res;
+      t_sum += w * t;
+      w_sum += w;
+    }
+    if (w_sum < 5) break;
+    H.diagonal().array() += 1e-9 + 1e-6 * H.diagonal().array();
+    const Eigen::Vector4d delta = -H.ldlt().solve(g);
+    if (!delta.allFinite()) break;
+    c += delta[0] * e1 + delta[1] * e2 + (t_sum / w_sum) * d;
+    d = (d + delta[2] * e1 + delta[3] * e2).normalized();
+    if (delta.head<2>().norm() < 1e-5 && delta.tail<2>().norm() < 1e-5) break;
+  }
+  axis->point = c;
+  axis->direction = d;
+  double cost = 0;
+  for (const auto& p : pts) {
+    const Eigen::Vector3d q = p - c;
+    const double res = (q - q.dot(d) * d).norm() - radius;
+    cost += std::min(res * res, tukey_c * tukey_c);
+  }
+  return cost;
+}
+
+}  // namespace
+
+AxisFitResult fitCylinderAxis(const std::vector<Eigen::Vector3f>& points, double radius,
+                              const EstimatorConfig::AxisFit& config) {
+  AxisFitResult result;
+  if (points.size() < 10 || !(radius > 0)) return result;
+  // Deterministic subsample.
+  std::vector<Eigen::Vector3d> pts;
+  const size_t stride =
+      std::max<size_t>(1, (points.size() + config.max_points - 1) / config.max_points);
+  for (size_t i = 0; i < points.size(); i += stride) pts.push_back(points[i].cast<double>());
+  std::vector<size_t> all(pts.size());
+  for (size_t i = 0; i < pts.size(); ++i) all[i] = i;
+
+  std::vector<AxisLine> hyps;
+  AxisLine h;
+  if (pca(pts, all, &h.point, &h.direction)) {
+    Eigen::Vector3d centre;
+    if (circleCentre(pts, all, h.point, h.direction, radius, &centre)) h.point = centre;
+    hyps.push_back(h);
+  }
+  std::mt19937 rng(config.seed);
+  std::uniform_int_distribution<size_t> pick(0, pts.size() - 1);
+  const double nb2 = config.neighbourhood * config.neighbourhood;
+  std::vector<size_t> nb;
+  for (int k = 0; k < config.hypotheses; ++k) {
+    const Eigen::Vector3d& s = pts[pick(rng)];
+    nb.clear();
+    for (size_t i = 0; i < pts.size(); ++i)
+      if ((pts[i] - s).squaredNorm() < nb2) nb.push_back(i);
+    if (nb.size() < 10) continue;
+    if (!pca(pts, nb, &h.point, &h.direction)) continue;
+    Eigen::Vector3d centre;
+    if (circleCentre(pts, nb, h.point, h.direction, radius, &centre)) h.point = centre;
+    hyps.push_back(h);
+  }
+  // Directions spread over the hemisphere (Fibonacci), each with its known-radius circle centre:
+  // short, stubby views (a joint standing 0.2 m out of the floor) give PCA no clear direction.
+  const double c_wide = 2.5 * config.inlier_threshold;
+  if (config.direction_samples > 0) {
+    std::vector<std::pair<double, AxisLine>> scored;
+    const Eigen::Vector3d centroid = hyps.empty() ? pts[0] : hyps[0].point;
+    const int n = config.direction_samples;
+    for (int k = 0; k < n; ++k) {
+      const double zz = (k + 0.5) / n;  // hemisphere z in (0, 1)
+      const double rr = std::sqrt(std::max(0.0, 1 - zz * zz)), phi = k * 2.399963229728653;
+      AxisLine a;
+      a.direction = Eigen::Vector3d(rr * std::cos(phi), rr * std::sin(phi), zz);
+      a.point = centroid;
+      if (!circleCentre(pts, all, centroid, a.direction, radius, &a.point)) continue;
+      double cost = 0;
+      for (const auto& p : pts) {
+        const Eigen::Vector3d q = p - a.point;
+        const double res = (q - q.dot(a.direction) * a.direction).norm() - radius;
+        cost += std::min(res * res, c_wide * c_wide);
+      }
+      scored.emplace_back(cost, a);
+    }
+    std::sort(scored.begin(), scored.end(),
+              [](const auto& x, const auto& y) { return x.first < y.first; });
+    for (size_t k = 0; k < scored.size() && k < 4; ++k) hyps.push_back(scored[k].second);
+  }
+  if (hyps.empty()) return result;
+  double best = std::numeric_limits<double>::infinity();
+  AxisLine best_axis;
+  for (AxisLine a : hyps) {
+    refineCylinder(pts, radius, 2.0 * c_wide, 3, &a);
+    const double cost = refineCylinder(pts, radius, c_wide, config.iterations, &a);
+    if (cost < best) {
+      best = cost;
+      best_axis = a;
+    }
+  }
+  refineCylinder(pts, radius, config.inlier_threshold * 1.5, config.iterations, &best_axis);
+  double ss = 0;
+  size_t n = 0;
+  for (const auto& p : pts) {
+    const Eigen::Vector3d q = p - best_axis.point;
+    const double res = (q - q.dot(best_axis.direction) * best_axis.direction).norm() - radius;
+    if (std::abs(res) < config.inlier_threshold) {
+      ss += res * res;
+      ++n;
+    }
+  }
+  result.axis = best_axis;
+  result.inliers = n;
+  result.rms = n ? std::sqrt(ss / n) : 0.0;
+  result.ok = n >= 10 && best_axis.direction.allFinite() && best_axis.point.allFinite();
+  return result;
+}
+
+// ---------------------------------------------------------------------------------------------
+
+ProfileModel::ProfileModel(EndLabel label, const ToolJointDimensions& dims) : label_(label) {
+  const std::vector<ProfilePoint> prof = toolJointProfile(label, dims);
+  tong_length_ = label == EndLabel::kBoxEnd ? dims.box_tong_length : dims.pin_tong_length;
+  z_min_ = -(tong_length_ + dims.taperLength());
+  z_max_ = label == EndLabel::kBoxEnd ? 0.0 : dims.pin_length;
+  double zb = 0;
+  for (const auto& q : prof) zb = std::min(zb, q.z);
+  const double Rt = dims.tube_od / 2, eps = 1e-9;
+  for (size_t i = 0; i < prof.size(); ++i) {
+    ProfilePoint a = prof[i], b = prof[(i + 1) % prof.size()];
+    const bool a_low = a.z <= zb + eps, b_low = b.z <= zb + eps;
+    if (a_low && b_low) continue;  // the model's closing annulus: not part of a real pipe
+    if (a_low || b_low) {
+      // The tube's outer wall continues; its bore is never seen.
+      if (std::abs(a.r - Rt) < eps && std::abs(b.r - Rt) < eps) {
+        if (a_low) a.z = zb - 2.0;
+        if (b_low) b.z = zb - 2.0;
+      } else {
+        continue;
+      }
+    }
+    edges_.push_back({Eigen::Vector2d(a.z, a.r), Eigen::Vector2d(b.z, b.r)});
+  }
+  // Distance grid and nearest-edge candidates per cell.
+  g_res_ = 0.0025;
+  g_z0_ = z_min_ - 0.2;
+  g_r0_ = 0.0;
+  g_nz_ = static_cast<int>(std::ceil((z_max_ + 0.2 - g_z0_) / g_res_)) + 1;
+  g_nr_ = static_cast<int>(std::ceil((dims.tool_joint_od / 2 + 0.15) / g_res_)) + 1;
+  const size_t cells = static_cast<size_t>(g_nz_) * g_nr_;
+  grid_.resize(cells);
+  cell_edges_.assign(cells, {{-1, -1, -1, -1}});
+  all_edges_.resize(edges_.size());
+  for (size_t k = 0; k < edges_.size(); ++k) all_edges_[k] = static_cast<int8_t>(k);
+  const std::vector<int8_t>& all = all_edges_;
+  auto nearestEdge = [&](double z, double r) {
+    double best = std::numeric_limits<double>::infinity();
+    int8_t arg = 0;
+    for (size_t k = 0; k < edges_.size(); ++k) {
+      const int8_t one = static_cast<int8_t>(k);
+      const double d = exactDistance(z, r, nullptr, &one, 1);
+      if (d < best) {
+        best = d;
+        arg = one;
+      }
+    }
+    return arg;
+  };
+  for (int i = 0; i < g_nz_; ++i)
+    for (int j = 0; j < g_nr_; ++j) {
+      const size_t c = static_cast<size_t>(i) * g_nr_ + j;
+      const double z = g_z0_ + i * g_res_, r = g_r0_ + j * g_res_;
+      grid_[c] = static_cast<float>(
+          exactDistance(z, r, nullptr, all.data(), static_cast<int>(all.size())));
+      // Candidates: nearest edges at the cell's centre and its four corners (cell = +-res/2),
+      // plus a margin so that points anywhere in the cell get their true nearest edge.
+      std::array<int8_t, 4>& list = cell_edges_[c];
+      int n = 0;
+      const double h = 0.75 * g_res_;
+      for (const auto& off :
+           {std::pair<double, double>{0, 0}, {-h, -h}, {-h, h}, {h, -h}, {h, h}}) {
+        const int8_t e = nearestEdge(z + off.first, std::max(0.0, r + off.second));
+        if (std::find(list.begin(), list.begin() + n, e) == list.begin() + n && n < 4)
+          list[n++] = e;
+      }
+    }
+}
+
+double ProfileModel::exactDistance(double z, double r, Eigen::Vector2d* grad, const int8_t* idx,
+                                   int n_edges) const {
+  const Eigen::Vector2d x(z, r);
+  double best = std::numeric_limits<double>::infinity();
+  Eigen::Vector2d best_closest(0, 0);
+  const Edge* best_edge = nullptr;
+  for (int k = 0; k < n_edges && idx[k] >= 0; ++k) {
+    const Edge& e = edges_[idx[k]];
+    const Eigen::Vector2d ab = e.b - e.a;
+    const double t = std::clamp((x - e.a).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
+    const Eigen::Vector2d c = e.a + t * ab;
+    const double d2 = (x - c).squaredNorm();
+    if (d2 < best) {
+      best = d2;
+      best_closest = c;
+      best_edge = &e;
+    }
+  }
+  const double d = std::sqrt(best);
+  if (grad) {
+    if (d > 1e-9) {
+      *grad = (x - best_closest) / d;
+    } else if (best_edge) {
+      const Eigen::Vector2d ab = (best_edge->b - best_edge->a).normalized();
+      *grad = Eigen::Vector2d(ab.y(), -ab.x());
+    } else {
+      *grad = Eigen::Vector2d(0, 1);
+    }
+  }
+  return d;
+}
+
+double ProfileModel::distance(double z, double r, Eigen::Vector2d* grad) const {
+  const int i = static_cast<int>(std::floor((z - g_z0_) / g_res_ + 0.5));
+  const int j = static_cast<int>(std::floor((r - g_r0_) / g_res_ + 0.5));
+  if (i >= 0 && j >= 0 && i < g_nz_ && j < g_nr_)
+    return exactDistance(z, r, grad, cell_edges_[static_cast<size_t>(i) * g_nr_ + j].data(), 4);
+  return exactDistance(z, r, grad, all_edges_.data(), static_cast<int>(all_edges_.size()));
+}
+
+float ProfileModel::coarseDistance(double z, double r) const {
+  const int i = std::clamp(static_cast<int>(std::floor((z - g_z0_) / g_res_ + 0.5)), 0, g_nz_ - 1);
+  const int j = std::clamp(static_cast<int>(std::floor((r - g_r0_) / g_res_ + 0.5)), 0, g_nr_ - 1);
+  const float d = grid_[static_cast<size_t>(i) * g_nr_ + j];
+  // Outside the grid: add the distance to it (never smaller than the truth by much).
+  const double dz = std::max(0.0, std::max(g_z0_ - z, z - (g_z0_ + (g_nz_ - 1) * g_res_)));
+  const double dr = std::max(0.0, r - (g_r0_ + (g_nr_ - 1) * g_res_));
+  return d + static_cast<float>(dz + dr);
+}
+
+double profileCost(const std::vector<Eigen::Vector3f>& points, const ProfileModel& model,
+                   const Eigen::Vector3d& origin, const Eigen::Vector3d& z, double truncation) {
+  if (points.empty()) return 0.0;
+  double cost = 0;
+  const double T2 = truncation * truncation;
+  for (const auto& pf : points) {
+    const Eigen::Vector3d q = pf.cast<double>() - origin;
+    const double zc = q.dot(z), rc = (q - zc * z).norm();
+    const double d = model.distance(zc, rc);
+    cost += std::min(d * d, T2);
+  }
+  return cost / points.size();
+}
+
+namespace {
+
+/// 1-DoF search along the axis for the shoulder, for one direction (sign) of the axis. Returns
+/// the origin's coordinate s along sign * direction from axis.point.
+double axialSearch(const std::vector<double>& ts, const std::vector<double>& rs, int sign,
+                   const ProfileModel& model, const EstimatorConfig::ProfileFit& config,
+                   double* best_cost) {
+  const double T2 = config.truncation * config.truncation;
+  const auto [t_lo_it, t_hi_it] = std::minmax_element(ts.begin(), ts.end());
+  const double t_lo = sign * *t_lo_it, t_hi = sign * *t_hi_it;
+  auto searchCost = [&](double s) {
+    double cost = 0;
+    for (size_t i = 0; i < ts.size(); ++i) {
+      const double d = model.coarseDistance(sign * ts[i] - s, rs[i]);
+      cost += std::min(d * d, T2);
+    }
+    return cost;
+  };
+  // Coarse (2.5 steps) over the whole range, then fine around the best.
+  // End-frame z of a point = sign * t - s.
+  const double coarse = 2.5 * config.search_step;
+  const double lo = std::min(t_lo, t_hi) - model.zMax() - 0.05;
+  const double hi = std::max(t_lo, t_hi) - model.zMin() + 0.05;
+  double best = std::numeric_limits<double>::infinity(), best_s = lo;
+  for (double s = lo; s <= hi; s += coarse) {
+    const double cost = searchCost(s);
+    if (cost < best) {
+      best = cost;
+      best_s = s;
+    }
+  }
+  const double s0 = best_s;
+  for (double s = s0 - coarse; s <= s0 + coarse + 1e-9; s += config.search_step) {
+    const double cost = searchCost(s);
+    if (cost < best) {
+      best = cost;
+      best_s = s;
+    }
+  }
+  *best_cost = best;
+  return best_s;
+}
+
+}  // namespace
+
+ProfileFitResult refineProfile(const std::vector<Eigen::Vector3f>& points,
+                               const std::vector<float>& sigmas, const Eigen::Vector3d& origin,
+                               const Eigen::Vector3d& z_axis, const ProfileModel& model,
+                               const EstimatorConfig::ProfileFit& config, int iterations,
+                               bool lock_axial) {
+  ProfileFitResult res;
+  res.label = model.label();
+  if (points.size() < 10 || sigmas.size() != points.size()) return res;
+  const double T = config.truncation, T2 = T * T;
+  Eigen::Vector3d o = origin, z = z_axis.normalized();
+  // 2. IRLS Gauss-Newton on the 5 DoF: o += a1 e1 + a2 e2 + a3 z, z += b1 e1 + b2 e2.
+  const double z_trust = model.trustedMinZ(config.wear_margin);
+  std::vector<Eigen::Vector3d> pts(points.size());
+  for (size_t i = 0; i < points.size(); ++i) pts[i] = points[i].cast<double>();
+  Eigen::Matrix<double, 5, 5> H_last = Eigen::Matrix<double, 5, 5>::Zero();
+  double chi2 = 0;
+  size_t n_used = 0;
+  for (int it = 0; it < iterations + 1; ++it) {
+    const bool last = it == iterations;
+    Eigen::Vector3d e1, e2;
+    orthoBasis(z, &e1, &e2);
+    Eigen::Matrix<double, 5, 5> H = Eigen::Matrix<double, 5, 5>::Zero();
+    Eigen::Matrix<double, 5, 1> g = Eigen::Matrix<double, 5, 1>::Zero();
+    chi2 = 0;
+    n_used = 0;
+    for (size_t i = 0; i < pts.size(); ++i) {
+      const Eigen::Vector3d q = pts[i] - o;
+      const double zc = q.dot(z);
+      // Beyond the trusted tong (worn joints are shorter): the radius still fixes the axis
+      // (lateral and tilt), but not the position along it.
+      const bool axial_info = zc >= z_trust;
+      const Eigen::Vector3d qp = q - zc * z;
+      const double rc = qp.norm();
+      if (rc < 1e-9) continue;
+      Eigen::Vector2d gr;
+      const double d = model.distance(zc, rc, &gr);
+      if (d > T) continue;
+      const double sigma = sigmas[i];
+      const double k = config.huber * sigma;
+      const double w = (d <= k ? 1.0 : k / d) / (sigma * sigma);
+      const Eigen::Vector3d u = qp / rc;
+      Eigen::Matrix<double, 5, 1> J;
+      J << -gr.y() * u.dot(e1), -gr.y() * u.dot(e2), -gr.x(),
+          gr.x() * q.dot(e1) - gr.y() * zc * u.dot(e1),
+          gr.x() * q.dot(e2) - gr.y() * zc * u.dot(e2);
+      const double e = d;
+      // No pull along the axis from the untrusted part.
+      if (!axial_info) J(2) = 0.0;
+      H += w * J * J.transpose();
+      g += w * J * e;
+      chi2 += e * e / (sigma * sigma);
+      ++n_used;
+    }
+    H_last = H;
+    if (last || n_used < 10) break;
+    Eigen::Matrix<double, 5, 5> Hd = H;
+    Hd.diagonal().array() += 1e-6 * Hd.diagonal().array() + 1e-3;
+    const Eigen::Matrix<double, 5, 1> delta = -Hd.ldlt().solve(g);
+    if (!delta.allFinite()) break;
+    // Limit the step (robustness far from the optimum).
+    const double step_t = delta.head<3>().norm(), step_r = delta.tail<2>().norm();
+    const double scale =
+        std::min({1.0, 0.05 / std::max(step_t, 1e-12), 0.1 / std::max(step_r, 1e-12)});
+    o += scale * (delta[0] * e1 + delta[1] * e2 + (lock_axial ? 0.0 : delta[2]) * z);
+    z = (z + scale * (delta[3] * e1 + delta[4] * e2)).normalized();
+    if (step_t < 2e-5 && step_r < 2e-5) {
+      it = iterations - 1;  // one more pass to evaluate H at the optimum
+    }
+  }
+  if (n_used < 10) return res;
+
+  // 3. Statistics over all points with the full model.
+  res.origin = o;
+  res.z = z;
+  res.inlier_mask.assign(points.size(), 0);
+  double cost = 0, ss = 0;
+  size_t inl = 0;
+  for (size_t i = 0; i < pts.size(); ++i) {
+    const Eigen::Vector3d q = pts[i] - o;
+    const double zc = q.dot(z), rc = (q - zc * z).norm();
+    const double d = model.distance(zc, rc);
+    cost += std::min(d * d, T2);
+    const double gate = std::min(T, std::max(0.01, 3.0 * sigmas[i]));
+    if (d < gate) {
+      res.inlier_mask[i] = 1;
+      ss += d * d;
+      ++inl;
+    }
+  }
+  res.cost = cost / pts.size();
+  res.inliers = inl;
+  res.rms = inl ? std::sqrt(ss / inl) : 0.0;
+  Eigen::Vector3d e1, e2;
+  orthoBasis(z, &e1, &e2);
+  res.basis.col(0) = e1;
+  res.basis.col(1) = e2;
+  res.basis.col(2) = z;
+  const double dof = std::max<double>(1.0, static_cast<double>(n_used) - 5.0);
+  const double s2 = std::max(1.0, chi2 / dof);
+  Eigen::Matrix<double, 5, 5> Hr = H_last;
+  Hr.diagonal().array() += 1e-9;
+  res.covariance = s2 * Hr.inverse();
+  res.ok = res.covariance.allFinite() && o.allFinite() && z.allFinite();
+  return res;
+}
+
+std::array<ProfileFitResult, 2> fitProfileHypotheses(const std::vector<Eigen::Vector3f>& points,
+                                                     const std::vector<float>& sigmas,
+                                                     const AxisLine& axis,
+                                                     const ProfileModel& model,
+                                                     const EstimatorConfig::ProfileFit& config,
+                                                     const ProfileModel* search_model) {
+  std::array<ProfileFitResult, 2> hyp;
+  const ProfileModel& sm = search_model ? *search_model : model;
+  hyp[0].label = hyp[1].label = model.label();
+  if (points.size() < 10 || sigmas.size() != points.size()) return hyp;
+  const Eigen::Vector3d d0 = axis.direction.normalized();
+  const size_t stride = std::max<size_t>(1, points.size() / config.search_points);
+  std::vector<double> ts, rs;
+  for (size_t i = 0; i < points.size(); i += stride) {
+    const Eigen::Vector3d q = points[i].cast<double>() - axis.point;
+    const double t = q.dot(d0);
+    ts.push_back(t);
+    rs.push_back((q - t * d0).norm());
+  }
+  for (int k = 0; k < 2; ++k) {
+    const int sign = k == 0 ? 1 : -1;
+    double c = 0;
+    const double s = axialSearch(ts, rs, sign, sm, config, &c);
+    const Eigen::Vector3d z = sign * d0;
+    hyp[k] = refineProfile(points, sigmas, axis.point + s * z, z, model, config, config.iterations);
+  }
+  return hyp;
+}
+
+ProfileFitResult fitProfile(const std::vector<Eigen::Vector3f>& points,
+                            const std::vector<float>& sigmas, const AxisLine& axis,
+                            const ProfileModel& model, const EstimatorConfig::ProfileFit& config) {
+  const auto hyp = fitProfileHypotheses(points, sigmas, axis, model, config);
+  if (hyp[0].ok && (!hyp[1].ok || hyp[0].cost <= hyp[1].cost)) return hyp[0];
+  return hyp[1];
+}
+
+double freeSpaceViolation(const std::vector<OrientedPoint>& samples,
+                          const Eigen::Isometry3d& T_world_end,
+                          const std::vector<CycleCamera>& cameras, double margin, size_t* judged) {
+  size_t viol = 0, support = 0;
+  for (const CycleCamera& cam : cameras) {
+    const Eigen::Isometry3d T_depth_end = cam.T_world_depth.inverse() * T_world_end;
+    const Eigen::Matrix3f R = T_depth_end.linear().cast<float>();
+    const Eigen::Vector3f t = T_depth_end.translation().cast<float>();
+    const float fx = cam.depth.fx(), fy = cam.depth.fy();
+    const float cx = cam.depth.cx() - cam.depth.offsetX(),
+                cy = cam.depth.cy() - cam.depth.offsetY();
+    const int W = cam.image.width, H = cam.image.height;
+    for (const OrientedPoint& s : samples) {
+      const Eigen::Vector3f p = R * s.p + t;
+      if (!(p.z() > 0.1f)) continue;
+      if ((R * s.n).dot(p) >= 0.0f) continue;  // faces away from the camera
+      const int u = static_cast<int>(std::floor(fx * p.x() / p.z() + cx + 0.5f));
+      const int v = static_cast<int>(std::floor(fy * p.y() / p.z() + cy + 0.5f));
+      if (u < 0 || v < 0 || u >= W || v >= H) continue;
+      // Seen through only when the whole 3x3 neighbourhood lies behind the sample: a one-pixel
+      // dead zone, so that silhouette pixels (partly on the object) never count, and free space
+      // guards against gross errors (axis direction, label, shifts of a pixel or more) while the
+      // profile cost does the fine positioning. Occluded samples count as judged (hiding a
+      // model below the floor or behind clutter must not look better).
+      int valid = 0, behind = 0;
+      for (int dv = -1; dv <= 1; ++dv)
+        for (int du = -1; du <= 1; ++du) {
+          const int uu = u + du, vv = v + dv;
+          if (uu < 0 || vv < 0 || uu >= W || vv >= H) continue;
+          const float zm = cam.image.depthAt(uu, vv);
+          if (!(zm == zm)) continue;
+          ++valid;
+          if (zm > p.z() + margin) ++behind;
+        }
+      if (valid == 0) continue;
+      if (behind == valid) {
+        ++viol;
+      } else {
+        ++support;  // consistent or occluded
+      }
+    }
+  }
+  if (judged) *judged = viol + support;
+  return viol + support > 0 ? static_cast<double>(viol) / (viol + support) : 0.0;
+}
+
+}  // namespace drill_pipe_pose

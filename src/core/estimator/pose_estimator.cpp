@@ -1,0 +1,324 @@
+#include "drill_pipe_pose/core/estimator/pose_estimator.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <set>
+#include <sstream>
+
+#include "drill_pipe_pose/core/errors.hpp"
+#include "drill_pipe_pose/core/estimator/stages.hpp"
+#include "drill_pipe_pose/core/estimator/thesis_baseline.hpp"
+#include "drill_pipe_pose/core/pipe_end_frame.hpp"
+
+namespace drill_pipe_pose {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+/// One label's fitted candidate.
+struct Candidate {
+  bool ok = false;
+  EndLabel detected = EndLabel::kBoxEnd;  ///< label of the detections the points came from
+  ProfileFitResult fit;                   ///< fit of the model that won (fit.label)
+  std::string reason;
+  std::vector<Eigen::Vector3f> pts;
+  std::vector<uint16_t> cams;
+};
+
+}  // namespace
+
+struct PoseEstimator::Impl {
+  std::array<ProfileModel, kNumEnds> models;
+  std::array<ProfileModel, kNumEnds> search_models;  ///< tong 0.3 m longer (wear-proof search)
+  /// Camera-facing surface samples (end frame) for the free-space check: the whole trusted
+  /// model, and the part near the shoulder / end face used in the axial scan.
+  std::array<std::vector<OrientedPoint>, kNumEnds> fs_samples, fs_end_samples;
+  std::unique_ptr<ThesisBaseline> baseline;
+};
+
+PoseEstimator::PoseEstimator(const EstimatorConfig& config)
+    : config_(config), impl_(std::make_unique<Impl>()) {
+  validateConfig(config_);
+  impl_->models[0] = ProfileModel(EndLabel::kBoxEnd, config_.dims);
+  impl_->models[1] = ProfileModel(EndLabel::kPinEnd, config_.dims);
+  ToolJointDimensions long_tong = config_.dims;
+  long_tong.box_tong_length += 0.3;
+  long_tong.pin_tong_length += 0.3;
+  impl_->search_models[0] = ProfileModel(EndLabel::kBoxEnd, long_tong);
+  impl_->search_models[1] = ProfileModel(EndLabel::kPinEnd, long_tong);
+  for (int l = 0; l < kNumEnds; ++l) {
+    const ProfileModel& m = impl_->models[l];
+    // The joint with its taper and 0.1 m of tube: a flipped or mislabelled model predicts
+    // surface there that the cameras see through (a worn taper is off by less than a pixel).
+    const double z_lo = m.zMin() - 0.1;
+    ToolJointDimensions d = config_.dims;
+    d.tube_length = 0.1;
+    for (const OrientedPoint& s :
+         sampleProfileSurface(toolJointProfile(static_cast<EndLabel>(l), d),
+                              config_.free_space.sample_spacing, 1, true)) {
+      if (s.p.z() < z_lo + 1e-3 || s.p.z() > m.zMax() + 1e-6) continue;
+      impl_->fs_samples[l].push_back(s);
+      if (s.p.z() > -0.08) impl_->fs_end_samples[l].push_back(s);
+    }
+  }
+  if (config_.method == EstimatorMethod::kThesisBaseline)
+    impl_->baseline = std::make_unique<ThesisBaseline>(config_);
+}
+
+PoseEstimator::~PoseEstimator() = default;
+
+void PoseEstimator::reset() {
+  if (impl_->baseline) impl_->baseline->reset();
+}
+
+/// 6x6 world covariance (x y z, rotation about world x y z) from a 5-DoF profile fit.
+static Eigen::Matrix<double, 6, 6> worldCovariance(const ProfileFitResult& fit,
+                                                   const EstimatorConfig::Covariance& c) {
+  const Eigen::Vector3d e1 = fit.basis.col(0), e2 = fit.basis.col(1), z = fit.basis.col(2);
+  // Params: a1 a2 a3 (origin along e1 e2 z), b1 b2 (z tilts toward e1, e2: rotation z x e).
+  Eigen::Matrix<double, 6, 5> M = Eigen::Matrix<double, 6, 5>::Zero();
+  M.block<3, 1>(0, 0) = e1;
+  M.block<3, 1>(0, 1) = e2;
+  M.block<3, 1>(0, 2) = z;
+  M.block<3, 1>(3, 3) = z.cross(e1);
+  M.block<3, 1>(3, 4) = z.cross(e2);
+  Eigen::Matrix<double, 6, 6> C = c.inflation * M * fit.covariance * M.transpose();
+  Eigen::Matrix3d R;
+  R << e1, e2, z;
+  const Eigen::Vector3d pos_floor(c.min_lateral_std * c.min_lateral_std,
+                                  c.min_lateral_std * c.min_lateral_std,
+                                  c.min_axial_std * c.min_axial_std);
+  const Eigen::Vector3d rot_floor(c.min_tilt_std * c.min_tilt_std, c.min_tilt_std * c.min_tilt_std,
+                                  c.roll_variance);
+  C.block<3, 3>(0, 0) += R * pos_floor.asDiagonal() * R.transpose();
+  C.block<3, 3>(3, 3) += R * rot_floor.asDiagonal() * R.transpose();
+  return 0.5 * (C + C.transpose());
+}
+
+CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
+  const auto t_start = Clock::now();
+  CycleResult result;
+  for (int l = 0; l < kNumEnds; ++l) {
+    result.ends[l].label = static_cast<EndLabel>(l);
+    result.ends[l].valid = false;
+  }
+  // Validate cameras; a bad one is skipped and named.
+  std::vector<CycleCamera> cams;
+  cams.reserve(inputs.size());
+  for (const CameraInput& in : inputs) {
+    try {
+      cams.push_back(makeCycleCamera(in.frame, in.T_world_depth, in.T_color_depth,
+                                     config_.cutout.min_confidence));
+      result.cameras_used.push_back(in.frame.camera);
+    } catch (const InputError& e) {
+      result.camera_errors.push_back(e.what());
+    }
+  }
+  if (cams.empty()) {
+    for (auto& e : result.ends)
+      e.reason = inputs.empty() ? "no camera input in this cycle" : "no valid camera input";
+    result.timing.total_ms = msSince(t_start);
+    return result;
+  }
+  if (impl_->baseline) {
+    impl_->baseline->process(cams, &result);
+    result.timing.total_ms = msSince(t_start);
+    return result;
+  }
+
+  // 1. Cut-out.
+  auto t0 = Clock::now();
+  std::array<std::vector<CloudPoint>, kNumEnds> raw;
+  for (size_t c = 0; c < cams.size(); ++c)
+    cutOutCamera(cams[c], static_cast<uint16_t>(c), config_, &raw);
+  result.timing.cutout_ms = msSince(t0);
+
+  // 2. Fusion: visual-hull carving per label.
+  t0 = Clock::now();
+  std::array<std::vector<CloudPoint>, kNumEnds> carved;
+  for (int l = 0; l < kNumEnds; ++l)
+    carved[l] = carve(raw[l], static_cast<EndLabel>(l), cams, config_.carving);
+  for (int l = 0; l < kNumEnds; ++l)
+    for (const auto& p : carved[l]) result.fused.push_back(p.p_world);
+  result.timing.fusion_ms = msSince(t0);
+
+  // 3. Segmentation: robust cylinder axis; 4. registration against both models.
+  std::array<Candidate, kNumEnds> cand;
+  double seg_ms = 0, reg_ms = 0;
+  for (int l = 0; l < kNumEnds; ++l) {
+    Candidate& cd = cand[l];
+    cd.detected = static_cast<EndLabel>(l);
+    bool any_box = false;
+    for (const auto& cam : cams) any_box = any_box || cam.has_label[l];
+    if (!any_box) {
+      cd.reason = std::string("no ") + labelName(cd.detected) + " detection in any camera";
+      continue;
+    }
+    if (carved[l].size() < config_.axis_fit.min_points) {
+      std::ostringstream s;
+      s << raw[l].size() << " points cut out, " << carved[l].size()
+        << " after carving (< axis_fit.min_points = " << config_.axis_fit.min_points << ")";
+      cd.reason = s.str();
+      continue;
+    }
+    t0 = Clock::now();
+    // Deterministic subsample to max_points.
+    const size_t stride =
+        std::max<size_t>(1, (carved[l].size() + config_.profile_fit.max_points - 1) /
+                                config_.profile_fit.max_points);
+    std::vector<float> sig;
+    for (size_t i = 0; i < carved[l].size(); i += stride) {
+      cd.pts.push_back(carved[l][i].p_world);
+      sig.push_back(carved[l][i].sigma);
+      cd.cams.push_back(carved[l][i].camera);
+    }
+    const AxisFitResult axis =
+        fitCylinderAxis(cd.pts, config_.dims.tool_joint_od / 2, config_.axis_fit);
+    seg_ms += msSince(t0);
+    if (!axis.ok) {
+      cd.reason =
+          "cylinder-axis fit found no tool joint in " + std::to_string(cd.pts.size()) + " points";
+      continue;
+    }
+    t0 = Clock::now();
+    const auto& fsc = config_.free_space;
+    const double T2 = config_.profile_fit.truncation * config_.profile_fit.truncation;
+    auto combined = [&](const ProfileFitResult& f, const std::vector<OrientedPoint>& samples) {
+      if (!f.ok) return std::numeric_limits<double>::infinity();
+      double c = f.cost;
+      if (fsc.enabled && fsc.decide_hypotheses)
+        c += fsc.weight * T2 *
+             freeSpaceViolation(samples, canonicalPose(f.origin, f.z), cams, fsc.margin);
+      return c;
+    };
+    // Both models x both axis directions; the profile cost plus the free-space penalty decides.
+    std::array<ProfileFitResult, kNumEnds> fits;
+    std::array<double, kNumEnds> cost{};
+    for (int m = 0; m < kNumEnds; ++m) {
+      const auto hyp = fitProfileHypotheses(
+          cd.pts, sig, axis.axis, impl_->models[m], config_.profile_fit,
+          config_.profile_fit.long_tong_search ? &impl_->search_models[m] : nullptr);
+      const double c0 = combined(hyp[0], impl_->fs_samples[m]);
+      const double c1 = combined(hyp[1], impl_->fs_samples[m]);
+      fits[m] = c0 <= c1 ? hyp[0] : hyp[1];
+      cost[m] = std::min(c0, c1);
+    }
+    const int other = 1 - l;
+    int win = l;
+    if (cost[other] < (1.0 - config_.profile_fit.label_margin) * cost[l]) win = other;
+    cd.fit = fits[win];
+    if (cd.fit.ok && fsc.enabled && fsc.axial_scan) {
+      // Position along the axis: scan the profile cost of the trusted points plus the
+      // free-space penalty of the shoulder / end-face region, then refine with it locked.
+      const ProfileModel& model = impl_->models[win];
+      const double z_trust = model.trustedMinZ(config_.profile_fit.wear_margin);
+      std::vector<Eigen::Vector3f> trusted;
+      for (const auto& p : cd.pts)
+        if ((p.cast<double>() - cd.fit.origin).dot(cd.fit.z) > z_trust + 0.03) trusted.push_back(p);
+      auto scanCost = [&](double delta) {
+        const Eigen::Vector3d o = cd.fit.origin + delta * cd.fit.z;
+        return profileCost(trusted, model, o, cd.fit.z, config_.profile_fit.truncation) +
+               fsc.weight * T2 *
+                   freeSpaceViolation(impl_->fs_end_samples[win], canonicalPose(o, cd.fit.z), cams,
+                                      fsc.margin);
+      };
+      double best_delta = 0, best = scanCost(0.0);
+      const double coarse = 4 * fsc.axial_step;
+      for (double d = -fsc.axial_range; d <= fsc.axial_range + 1e-9; d += coarse) {
+        const double c = scanCost(d);
+        if (c < best) {
+          best = c;
+          best_delta = d;
+        }
+      }
+      const double d0 = best_delta;
+      for (double d = d0 - coarse; d <= d0 + coarse + 1e-9; d += fsc.axial_step) {
+        const double c = scanCost(d);
+        if (c < best) {
+          best = c;
+          best_delta = d;
+        }
+      }
+      ProfileFitResult f =
+          refineProfile(cd.pts, sig, cd.fit.origin + best_delta * cd.fit.z, cd.fit.z, model,
+                        config_.profile_fit, config_.profile_fit.iterations, true);
+      if (f.ok) cd.fit = f;
+    }
+    reg_ms += msSince(t0);
+    if (!cd.fit.ok) {
+      cd.reason = "model registration failed";
+      continue;
+    }
+    const double inlier_fraction = static_cast<double>(cd.fit.inliers) / cd.pts.size();
+    if (cd.fit.rms > config_.profile_fit.max_rms ||
+        inlier_fraction < config_.profile_fit.min_inlier_fraction) {
+      std::ostringstream s;
+      s << "model fit rejected: RMS residual " << cd.fit.rms * 1000 << " mm, inliers "
+        << cd.fit.inliers << "/" << cd.pts.size();
+      cd.reason = s.str();
+      continue;
+    }
+    cd.ok = true;
+  }
+  result.timing.segmentation_ms = seg_ms;
+  result.timing.registration_ms = reg_ms;
+
+  // Assign candidates to ends by the model that fits; the detected label wins a tie.
+  std::array<int, kNumEnds> owner{{-1, -1}};
+  for (int l = 0; l < kNumEnds; ++l) {
+    if (!cand[l].ok) continue;
+    const int slot = static_cast<int>(cand[l].fit.label);
+    const int prev = owner[slot];
+    if (prev < 0) {
+      owner[slot] = l;
+    } else {
+      const bool prev_native = static_cast<int>(cand[prev].detected) == slot;
+      const bool this_native = l == slot;
+      if (this_native && !prev_native)
+        owner[slot] = l;
+      else if (this_native == prev_native && cand[l].fit.cost < cand[prev].fit.cost)
+        owner[slot] = l;
+    }
+  }
+  for (int slot = 0; slot < kNumEnds; ++slot) {
+    EndEstimate& e = result.ends[slot];
+    const int l = owner[slot];
+    if (l < 0) {
+      // Explain: the slot's own candidate failed, or was moved to the other end.
+      const Candidate& own = cand[slot];
+      if (own.ok && static_cast<int>(own.fit.label) != slot)
+        e.reason = std::string("the ") + labelName(static_cast<EndLabel>(slot)) +
+                   " detections fit the " + labelName(own.fit.label) + " model (label corrected)";
+      else if (own.ok)
+        e.reason = "duplicate of another end";
+      else
+        e.reason = own.reason;
+      continue;
+    }
+    const Candidate& cd = cand[l];
+    e.valid = true;
+    e.reason.clear();
+    e.label_corrected = l != slot;
+    e.T_world_end = canonicalPose(cd.fit.origin, cd.fit.z);
+    e.covariance = worldCovariance(cd.fit, config_.covariance);
+    e.residual = cd.fit.rms;
+    e.points = cd.fit.inliers;
+    std::set<uint16_t> used;
+    for (size_t i = 0; i < cd.pts.size(); ++i)
+      if (cd.fit.inlier_mask[i]) {
+        used.insert(cd.cams[i]);
+        result.segmented[slot].push_back(cd.pts[i]);
+      }
+    for (uint16_t c : used) e.cameras.push_back(cams[c].name);
+  }
+  result.timing.total_ms = msSince(t_start);
+  return result;
+}
+
+}  // namespace drill_pipe_pose

@@ -1,0 +1,196 @@
+#include "drill_pipe_pose/core/estimator/thesis_baseline.hpp"
+
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+#include <pcl/registration/icp.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <deque>
+
+#include "drill_pipe_pose/core/pipe_end_frame.hpp"
+#include "drill_pipe_pose/core/tool_joint.hpp"
+
+namespace drill_pipe_pose {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+using Cloud = pcl::PointCloud<pcl::PointXYZ>;
+}  // namespace
+
+struct ThesisBaseline::Impl {
+  EstimatorConfig config;
+  std::array<Cloud::Ptr, kNumEnds> models;
+  std::array<Eigen::Vector3f, kNumEnds> model_centroid;
+  std::array<std::deque<Cloud::Ptr>, kNumEnds> layers;
+  std::array<bool, kNumEnds> has_pose{{false, false}};
+  std::array<Eigen::Matrix4f, kNumEnds> pose;  ///< T_world_model of the last cycle
+};
+
+ThesisBaseline::ThesisBaseline(const EstimatorConfig& config) : impl_(std::make_unique<Impl>()) {
+  impl_->config = config;
+  for (int l = 0; l < kNumEnds; ++l) {
+    // Uniformly sampled model surface (CloudCompare-style: every surface, bore included).
+    const auto surf = sampleProfileSurface(toolJointProfile(static_cast<EndLabel>(l), config.dims),
+                                           config.baseline.model_spacing, 1, false);
+    Cloud::Ptr m(new Cloud);
+    Eigen::Vector3f c = Eigen::Vector3f::Zero();
+    for (const auto& s : surf) {
+      m->push_back(pcl::PointXYZ(s.p.x(), s.p.y(), s.p.z()));
+      c += s.p;
+    }
+    impl_->model_centroid[l] = c / std::max<size_t>(1, surf.size());
+    impl_->models[l] = m;
+    impl_->pose[l].setIdentity();
+  }
+}
+
+ThesisBaseline::~ThesisBaseline() = default;
+
+void ThesisBaseline::reset() {
+  for (int l = 0; l < kNumEnds; ++l) {
+    impl_->layers[l].clear();
+    impl_->has_pose[l] = false;
+    impl_->pose[l].setIdentity();
+  }
+}
+
+void ThesisBaseline::process(const std::vector<CycleCamera>& cams, CycleResult* result) {
+  const EstimatorConfig& cfg = impl_->config;
+  const auto& bl = cfg.baseline;
+  // 1. Cut-out: box mapped to depth pixels by the focal-length ratio about the principal points.
+  auto t0 = Clock::now();
+  std::array<Cloud::Ptr, kNumEnds> cycle{{Cloud::Ptr(new Cloud), Cloud::Ptr(new Cloud)}};
+  std::array<std::vector<std::string>, kNumEnds> cam_names;
+  for (const CycleCamera& cam : cams) {
+    const DepthProjector proj(cam.depth);
+    const double sx = cam.depth.fx() / cam.color.fx(), sy = cam.depth.fy() / cam.color.fy();
+    auto to_du = [&](double u) {
+      return (u + cam.color.offsetX() - cam.color.cx()) * sx + cam.depth.cx() - cam.depth.offsetX();
+    };
+    auto to_dv = [&](double v) {
+      return (v + cam.color.offsetY() - cam.color.cy()) * sy + cam.depth.cy() - cam.depth.offsetY();
+    };
+    const Eigen::Isometry3f T = cam.T_world_depth.cast<float>();
+    for (const DetectionBox& b : cam.boxes) {
+      const int l = static_cast<int>(b.label);
+      if (std::find(cam_names[l].begin(), cam_names[l].end(), cam.name) == cam_names[l].end())
+        cam_names[l].push_back(cam.name);
+      const int u0 = static_cast<int>(std::floor(to_du(b.x_min)));
+      const int u1 = static_cast<int>(std::ceil(to_du(b.x_max))) + 1;
+      const int v0 = static_cast<int>(std::floor(to_dv(b.y_min)));
+      const int v1 = static_cast<int>(std::ceil(to_dv(b.y_max))) + 1;
+      proj.forEachPoint(cam.image, u0, v0, u1, v1, [&](int, int, const Eigen::Vector3f& p) {
+        if (p.z() < cfg.cutout.min_range || p.z() > cfg.cutout.max_range) return;
+        const Eigen::Vector3f w = T * p;
+        if ((w.array() < cfg.work_zone.min.cast<float>().array()).any() ||
+            (w.array() > cfg.work_zone.max.cast<float>().array()).any())
+          return;
+        cycle[l]->push_back(pcl::PointXYZ(w.x(), w.y(), w.z()));
+      });
+    }
+  }
+  result->timing.cutout_ms = msSince(t0);
+
+  // 2. Fusion: concatenate the last `layers` clouds per end.
+  t0 = Clock::now();
+  std::array<Cloud::Ptr, kNumEnds> fused;
+  for (int l = 0; l < kNumEnds; ++l) {
+    auto& q = impl_->layers[l];
+    q.push_back(cycle[l]);
+    while (static_cast<int>(q.size()) > bl.layers) q.pop_front();
+    fused[l].reset(new Cloud);
+    for (const auto& c : q) *fused[l] += *c;
+    for (const auto& p : *fused[l]) result->fused.emplace_back(p.x, p.y, p.z);
+  }
+  result->timing.fusion_ms = msSince(t0);
+
+  for (int l = 0; l < kNumEnds; ++l) {
+    EndEstimate& e = result->ends[l];
+    e.label = static_cast<EndLabel>(l);
+    if (cycle[l]->empty()) {
+      e.reason = std::string("no ") + labelName(e.label) + " points in this cycle";
+      continue;
+    }
+    // 3. Square exclusion around the centroid of the points in the height band.
+    t0 = Clock::now();
+    double sx = 0, sy = 0;
+    size_t n = 0;
+    for (const auto& p : *fused[l])
+      if (p.z >= bl.band_min_z && p.z <= bl.band_max_z) {
+        sx += p.x;
+        sy += p.y;
+        ++n;
+      }
+    Cloud::Ptr seg(new Cloud);
+    if (n > 0) {
+      const double cx = sx / n, cy = sy / n, h = bl.square_size / 2;
+      for (const auto& p : *fused[l])
+        if (std::abs(p.x - cx) <= h && std::abs(p.y - cy) <= h) seg->push_back(p);
+    }
+    result->timing.segmentation_ms += msSince(t0);
+    if (seg->size() < bl.min_points) {
+      e.reason = n == 0 ? "no points in the segmentation height band"
+                        : "too few points in the segmentation square";
+      continue;
+    }
+    for (const auto& p : *seg) result->segmented[l].emplace_back(p.x, p.y, p.z);
+
+    // 4. Pre-alignment (translation to the centroid) and ICP, 10 x 200 iterations.
+    t0 = Clock::now();
+    Eigen::Vector3f c = Eigen::Vector3f::Zero();
+    for (const auto& p : *seg) c += p.getVector3fMap();
+    c /= static_cast<float>(seg->size());
+    Eigen::Matrix4f T = impl_->pose[l];
+    const Eigen::Vector3f model_c =
+        T.block<3, 3>(0, 0) * impl_->model_centroid[l] + T.block<3, 1>(0, 3);
+    if (!impl_->has_pose[l] || (model_c - c).norm() > bl.prealign_distance) {
+      T.setIdentity();  // model loaded at the origin, translated onto the cloud's centroid
+      T.block<3, 1>(0, 3) = c - impl_->model_centroid[l];
+    }
+    pcl::IterativeClosestPoint<pcl::PointXYZ, pcl::PointXYZ> icp;
+    icp.setInputSource(impl_->models[l]);
+    icp.setInputTarget(seg);
+    icp.setMaximumIterations(bl.icp_iterations);
+    Cloud aligned;
+    bool converged = false;
+    for (int r = 0; r < bl.icp_runs; ++r) {
+      icp.align(aligned, T);
+      converged = icp.hasConverged();
+      T = icp.getFinalTransformation();
+    }
+    const double fitness = icp.getFitnessScore();
+    result->timing.registration_ms += msSince(t0);
+    impl_->pose[l] = T;
+    impl_->has_pose[l] = true;
+    if (!converged || !T.allFinite()) {
+      e.reason = "ICP did not converge";
+      continue;
+    }
+    Eigen::Isometry3d T_world_model = Eigen::Isometry3d::Identity();
+    T_world_model.matrix() = T.cast<double>();
+    T_world_model.linear() =
+        Eigen::Quaterniond(T_world_model.linear()).normalized().toRotationMatrix();
+    e.valid = true;
+    e.T_world_end = canonicalize(T_world_model);
+    e.residual = std::sqrt(fitness);
+    e.points = seg->size();
+    e.cameras = cam_names[l];
+    const Eigen::Matrix3d R = e.T_world_end.linear();
+    e.covariance.setZero();
+    e.covariance.block<3, 3>(0, 0) =
+        Eigen::Matrix3d::Identity() * (bl.position_std * bl.position_std);
+    e.covariance.block<3, 3>(3, 3) =
+        R *
+        Eigen::Vector3d(bl.tilt_std * bl.tilt_std, bl.tilt_std * bl.tilt_std,
+                        cfg.covariance.roll_variance)
+            .asDiagonal() *
+        R.transpose();
+  }
+}
+
+}  // namespace drill_pipe_pose

@@ -1,0 +1,90 @@
+#include "drill_pipe_pose/ros/estimator_params.hpp"
+
+#include <sstream>
+
+#include "drill_pipe_pose/ros/params.hpp"
+
+namespace drill_pipe_pose {
+
+EstimatorConfig loadEstimatorConfig(const ros::NodeHandle& pnh) {
+  EstimatorConfig c;
+  std::string method = estimatorMethodName(c.method);
+  readParam(pnh, "method", method);
+  c.method = parseEstimatorMethod(method, "parameter " + pnh.resolveName("method"));
+  readVector3(pnh, "work_zone/min", c.work_zone.min);
+  readVector3(pnh, "work_zone/max", c.work_zone.max);
+
+  ToolJointDimensions& d = c.dims;
+  readNumber(pnh, "tool_joint/tube_od", d.tube_od, 0.0);
+  readNumber(pnh, "tool_joint/tube_id", d.tube_id, 0.0);
+  readNumber(pnh, "tool_joint/tool_joint_od", d.tool_joint_od, 0.0);
+  readNumber(pnh, "tool_joint/tool_joint_id", d.tool_joint_id, 0.0);
+  readNumber(pnh, "tool_joint/elevator_taper_deg", d.elevator_taper_deg, 0.0);
+  readNumber(pnh, "tool_joint/pin_tong_length", d.pin_tong_length, 0.0);
+  readNumber(pnh, "tool_joint/box_tong_length", d.box_tong_length, 0.0);
+  readNumber(pnh, "tool_joint/pin_length", d.pin_length, 0.0);
+  readNumber(pnh, "tool_joint/pin_large_diameter", d.pin_large_diameter, 0.0);
+  readNumber(pnh, "tool_joint/pin_taper", d.pin_taper, 0.0);
+  readNumber(pnh, "tool_joint/box_counterbore_diameter", d.box_counterbore_diameter, 0.0);
+  readNumber(pnh, "tool_joint/box_thread_depth", d.box_thread_depth, 0.0);
+  readNumber(pnh, "tool_joint/tube_length", d.tube_length, 0.0);
+
+  readNumber(pnh, "cutout/box_margin_px", c.cutout.box_margin_px, 0.0);
+  readNumber(pnh, "cutout/min_range", c.cutout.min_range, 0.0);
+  readNumber(pnh, "cutout/max_range", c.cutout.max_range, 0.0);
+  readNumber(pnh, "cutout/min_confidence", c.cutout.min_confidence, 0.0);
+
+  readNumber(pnh, "carving/min_cameras", c.carving.min_cameras, 1.0);
+  readNumber(pnh, "carving/vote_fraction", c.carving.vote_fraction, 0.0);
+  readNumber(pnh, "carving/margin_px", c.carving.margin_px, 0.0);
+
+  readNumber(pnh, "axis_fit/min_points", c.axis_fit.min_points, 3.0);
+  readNumber(pnh, "axis_fit/max_points", c.axis_fit.max_points, 3.0);
+  readNumber(pnh, "axis_fit/hypotheses", c.axis_fit.hypotheses, 0.0);
+  readNumber(pnh, "axis_fit/neighbourhood", c.axis_fit.neighbourhood, 0.0);
+  readNumber(pnh, "axis_fit/inlier_threshold", c.axis_fit.inlier_threshold, 0.0);
+  readNumber(pnh, "axis_fit/iterations", c.axis_fit.iterations, 1.0);
+  readNumber(pnh, "axis_fit/seed", c.axis_fit.seed, 0.0);
+
+  readNumber(pnh, "profile_fit/search_step", c.profile_fit.search_step, 0.0);
+  readNumber(pnh, "profile_fit/truncation", c.profile_fit.truncation, 0.0);
+  readNumber(pnh, "profile_fit/wear_margin", c.profile_fit.wear_margin, 0.0);
+  readNumber(pnh, "profile_fit/iterations", c.profile_fit.iterations, 1.0);
+  readNumber(pnh, "profile_fit/huber", c.profile_fit.huber, 0.0);
+  readNumber(pnh, "profile_fit/label_margin", c.profile_fit.label_margin, 0.0);
+  readNumber(pnh, "profile_fit/search_points", c.profile_fit.search_points, 1.0);
+  readNumber(pnh, "profile_fit/max_rms", c.profile_fit.max_rms, 0.0);
+  readNumber(pnh, "profile_fit/min_inlier_fraction", c.profile_fit.min_inlier_fraction, 0.0);
+
+  readNumber(pnh, "noise/scale", c.noise.scale, 0.0);
+  readNumber(pnh, "noise/min_sigma", c.noise.min_sigma, 0.0);
+
+  readNumber(pnh, "covariance/inflation", c.covariance.inflation, 0.0);
+  readNumber(pnh, "covariance/min_lateral_std", c.covariance.min_lateral_std, 0.0);
+  readNumber(pnh, "covariance/min_axial_std", c.covariance.min_axial_std, 0.0);
+  readNumber(pnh, "covariance/min_tilt_std", c.covariance.min_tilt_std, 0.0);
+  readNumber(pnh, "covariance/roll_variance", c.covariance.roll_variance, 0.0);
+
+  readNumber(pnh, "baseline/layers", c.baseline.layers, 1.0);
+  readNumber(pnh, "baseline/square_size", c.baseline.square_size, 0.0);
+  readNumber(pnh, "baseline/band_min_z", c.baseline.band_min_z, -1e9);
+  readNumber(pnh, "baseline/band_max_z", c.baseline.band_max_z, -1e9);
+  readNumber(pnh, "baseline/icp_iterations", c.baseline.icp_iterations, 1.0);
+  readNumber(pnh, "baseline/icp_runs", c.baseline.icp_runs, 1.0);
+  readNumber(pnh, "baseline/model_spacing", c.baseline.model_spacing, 0.0);
+  validateConfig(c);
+  return c;
+}
+
+std::string describeEstimatorConfig(const EstimatorConfig& c) {
+  std::ostringstream s;
+  s << "method " << estimatorMethodName(c.method) << "; work zone [" << c.work_zone.min.transpose()
+    << "] .. [" << c.work_zone.max.transpose() << "] m; tool joint OD " << c.dims.tool_joint_od
+    << " m, tube OD " << c.dims.tube_od << " m; cut-out margin " << c.cutout.box_margin_px
+    << " px, range " << c.cutout.min_range << ".." << c.cutout.max_range << " m, min confidence "
+    << c.cutout.min_confidence << "; carving min cameras " << c.carving.min_cameras
+    << ", vote fraction " << c.carving.vote_fraction;
+  return s.str();
+}
+
+}  // namespace drill_pipe_pose

@@ -1,0 +1,409 @@
+// pose_estimator: the central node. N cameras' SensorFrames -> per-end poses.
+//
+// Thin by design: parameters into structs, messages and TF into core types, the ROS-free
+// FrameSynchronizer and PoseEstimator do the work, results out as messages. See README "Topics".
+#include <diagnostic_msgs/DiagnosticArray.h>
+#include <drill_pipe_pose/EstimatorStatus.h>
+#include <drill_pipe_pose/PipeEnds.h>
+#include <drill_pipe_pose/SensorFrame.h>
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
+#include <ros/ros.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <sensor_msgs/point_cloud2_iterator.h>
+#include <tf2_eigen/tf2_eigen.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_broadcaster.h>
+#include <tf2_ros/transform_listener.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include <map>
+#include <memory>
+#include <optional>
+
+#include "drill_pipe_pose/core/estimator/pose_estimator.hpp"
+#include "drill_pipe_pose/core/frame_sync.hpp"
+#include "drill_pipe_pose/core/pipe_end_frame.hpp"
+#include "drill_pipe_pose/ros/conversions.hpp"
+#include "drill_pipe_pose/ros/estimator_params.hpp"
+#include "drill_pipe_pose/ros/params.hpp"
+#include "drill_pipe_pose/ros/sim_messages.hpp"
+
+namespace drill_pipe_pose {
+namespace {
+
+double wallNow() {
+  return ros::WallTime::now().toSec();
+}
+
+struct NodeConfig {
+  std::vector<std::string> cameras;  ///< required: the sensor nodes to fuse
+  std::string world_frame = conventions::kDefaultWorldFrame;
+  std::array<std::string, kNumEnds> end_frames{{"box_end", "pin_end"}};
+  double max_pose_age = 0.2;  ///< [s] an end not seen for longer is reported invalid
+  double tf_timeout = 0.0;    ///< [s] wait for TF per lookup (0: only what is buffered)
+  FrameSyncConfig sync;
+};
+
+NodeConfig loadNodeConfig(const ros::NodeHandle& pnh) {
+  NodeConfig c;
+  readParam(pnh, "cameras", c.cameras);
+  if (c.cameras.empty())
+    fail("parameter ", pnh.resolveName("cameras"),
+         " is missing or empty: list the sensor nodes to fuse, e.g. [cam1, cam2]");
+  readParam(pnh, "world_frame", c.world_frame);
+  readParam(pnh, "box_end_frame", c.end_frames[0]);
+  readParam(pnh, "pin_end_frame", c.end_frames[1]);
+  readNumber(pnh, "max_pose_age", c.max_pose_age, 0.0);
+  readNumber(pnh, "tf_timeout", c.tf_timeout, 0.0);
+  readNumber(pnh, "sync/window", c.sync.window, 1e-4);
+  readNumber(pnh, "sync/max_wait", c.sync.max_wait, 0.0);
+  readNumber(pnh, "sync/camera_timeout", c.sync.camera_timeout, 1e-3);
+  readNumber(pnh, "sync/buffer_size", c.sync.buffer_size, 1.0);
+  return c;
+}
+
+class PoseEstimatorNode {
+ public:
+  PoseEstimatorNode(ros::NodeHandle nh, ros::NodeHandle pnh)
+      : nh_(nh),
+        pnh_(pnh),
+        cfg_(loadNodeConfig(pnh)),
+        est_cfg_(loadEstimatorConfig(pnh)),
+        estimator_(est_cfg_),
+        sync_(cfg_.cameras, cfg_.sync),
+        tf_listener_(tf_buffer_) {
+    for (const auto& cam : cfg_.cameras) {
+      const std::string topic = conventions::sensorFrameTopic(cam);
+      subs_.push_back(nh_.subscribe<SensorFrame>(
+          topic, 10, [this, cam](const SensorFrameConstPtr& m) { onFrame(cam, m); },
+          ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay()));
+      counters_[cam];
+    }
+    for (int e = 0; e < kNumEnds; ++e)
+      pose_pubs_[e] = pnh_.advertise<geometry_msgs::PoseWithCovarianceStamped>(
+          conventions::poseTopic(static_cast<EndLabel>(e)), 10);
+    ends_pub_ = pnh_.advertise<PipeEnds>(conventions::kPipeEndsTopic, 10);
+    status_pub_ = pnh_.advertise<EstimatorStatus>(conventions::kStatusTopic, 10);
+    diag_pub_ = nh_.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 10);
+    fused_pub_ = pnh_.advertise<sensor_msgs::PointCloud2>("debug/fused", 1);
+    segmented_pub_ = pnh_.advertise<sensor_msgs::PointCloud2>("debug/segmented", 1);
+    marker_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("debug/models", 1);
+    poll_timer_ = nh_.createWallTimer(ros::WallDuration(0.005),
+                                      [this](const ros::WallTimerEvent&) { processReady(); });
+    diag_timer_ = nh_.createWallTimer(ros::WallDuration(1.0),
+                                      [this](const ros::WallTimerEvent&) { publishDiagnostics(); });
+    std::string cams;
+    for (const auto& c : cfg_.cameras) cams += " " + c;
+    ROS_INFO(
+        "pose_estimator: fusing %zu camera(s):%s; world frame '%s'; sync window %.1f ms, "
+        "max wait %.1f ms, camera timeout %.2f s; max pose age %.2f s",
+        cfg_.cameras.size(), cams.c_str(), cfg_.world_frame.c_str(), cfg_.sync.window * 1e3,
+        cfg_.sync.max_wait * 1e3, cfg_.sync.camera_timeout, cfg_.max_pose_age);
+    ROS_INFO("pose_estimator: %s", describeEstimatorConfig(est_cfg_).c_str());
+  }
+
+ private:
+  struct Stored {
+    std::string camera;
+    SensorFrameConstPtr msg;
+  };
+  struct Counters {
+    uint64_t bad_input = 0, tf_failures = 0, received_at_last_diag = 0;
+  };
+
+  void onFrame(const std::string& cam, const SensorFrameConstPtr& msg) {
+    const int64_t stamp = toNs(msg->header.stamp);
+    if (last_cycle_stamp_ns_ > 0 && stamp < last_cycle_stamp_ns_ - 1000000000LL) {
+      // The clock jumped back (a looped bag, a restarted simulator): start afresh.
+      ROS_WARN(
+          "pose_estimator: %s frame stamped %.3f s is %.1f s older than the last cycle: "
+          "time jumped back (looped bag?); resetting buffers and poses",
+          cam.c_str(), stamp * 1e-9, (last_cycle_stamp_ns_ - stamp) * 1e-9);
+      sync_.reset();
+      for (auto id : sync_.takeDropped()) store_.erase(id);
+      estimator_.reset();
+      for (auto& l : last_) l.reset();
+      last_cycle_stamp_ns_ = 0;
+    }
+    const uint64_t id = next_id_++;
+    store_[id] = Stored{cam, msg};
+    if (!sync_.add(cam, stamp, wallNow(), id))
+      ROS_DEBUG("pose_estimator: %s frame %.3f s too late for its cycle", cam.c_str(),
+                stamp * 1e-9);
+    processReady();
+  }
+
+  void processReady() {
+    for (const auto& cycle : sync_.poll(wallNow())) processCycle(cycle);
+    for (auto id : sync_.takeDropped()) store_.erase(id);
+  }
+
+  /// Converts one stored frame and looks up its transforms; nullopt (with a throttled message
+  /// naming the camera) when it cannot be used this cycle.
+  std::optional<CameraInput> makeInput(const Stored& s) {
+    CameraInput in;
+    try {
+      in.frame = fromMsg(s.msg);
+    } catch (const InputError& e) {
+      ++counters_[s.camera].bad_input;
+      ROS_ERROR_THROTTLE(5.0, "pose_estimator: dropping a frame of %s (throttled, 5 s): %s",
+                         s.camera.c_str(), e.what());
+      return std::nullopt;
+    }
+    const std::string depth_frame =
+        !in.frame.depth_frame_id.empty() ? in.frame.depth_frame_id : in.frame.depth_info.frame_id;
+    const std::string color_frame =
+        !in.frame.color_info.frame_id.empty() ? in.frame.color_info.frame_id : in.frame.frame_id;
+    try {
+      const ros::Time stamp =
+          fromNs(in.frame.depth_stamp_ns ? in.frame.depth_stamp_ns : in.frame.stamp_ns);
+      in.T_world_depth = tf2::transformToEigen(tf_buffer_.lookupTransform(
+          cfg_.world_frame, depth_frame, stamp, ros::Duration(cfg_.tf_timeout)));
+      in.T_color_depth = tf2::transformToEigen(tf_buffer_.lookupTransform(
+          color_frame, depth_frame, stamp, ros::Duration(cfg_.tf_timeout)));
+    } catch (const tf2::TransformException& e) {
+      ++counters_[s.camera].tf_failures;
+      ROS_WARN_THROTTLE(5.0,
+                        "pose_estimator: no transform for %s (throttled, 5 s): %s <- '%s' and "
+                        "'%s' <- '%s': %s",
+                        s.camera.c_str(), cfg_.world_frame.c_str(), depth_frame.c_str(),
+                        color_frame.c_str(), depth_frame.c_str(), e.what());
+      return std::nullopt;
+    }
+    return in;
+  }
+
+  void processCycle(const FrameSynchronizer::Cycle& cycle) {
+    std::vector<CameraInput> inputs;
+    for (const auto& [cam, id] : cycle.frames) {
+      auto it = store_.find(id);
+      if (it == store_.end()) continue;
+      if (auto in = makeInput(it->second)) inputs.push_back(std::move(*in));
+      store_.erase(it);
+    }
+    CycleResult result = estimator_.process(inputs);
+    for (const auto& err : result.camera_errors)
+      ROS_ERROR_THROTTLE(5.0, "pose_estimator: %s (throttled, 5 s)", err.c_str());
+    last_cycle_stamp_ns_ = cycle.stamp_ns;
+    publish(cycle, result);
+  }
+
+  void publish(const FrameSynchronizer::Cycle& cycle, const CycleResult& r) {
+    const ros::Time stamp = fromNs(cycle.stamp_ns);
+    PipeEnds ends;
+    ends.header.stamp = stamp;
+    ends.header.frame_id = cfg_.world_frame;
+    EstimatorStatus status;
+    status.header = ends.header;
+    status.cameras_configured = cfg_.cameras;
+    status.cameras_live = sync_.liveCameras();
+    status.cameras_used = r.cameras_used;
+    std::string message;
+    std::array<const EndEstimate*, kNumEnds> reported{{nullptr, nullptr}};
+    for (int e = 0; e < kNumEnds; ++e) {
+      const EndEstimate& est = r.ends[e];
+      PipeEnd out;
+      out.label = labelName(static_cast<EndLabel>(e));
+      if (est.valid) {
+        last_[e] = LastEstimate{est, cycle.stamp_ns};
+        publishPose(e, est, stamp);
+      }
+      const double age = last_[e] ? (cycle.stamp_ns - last_[e]->stamp_ns) * 1e-9 : 0.0;
+      if (last_[e] && age <= cfg_.max_pose_age) {
+        const EndEstimate& use = last_[e]->estimate;
+        reported[e] = &use;
+        out.valid = true;
+        out.pose.pose = tf2::toMsg(use.T_world_end);
+        for (int i = 0; i < 36; ++i) out.pose.covariance[i] = use.covariance(i / 6, i % 6);
+        out.age = ros::Duration(age);
+        out.residual = use.residual;
+        out.points = static_cast<uint32_t>(use.points);
+        out.cameras = use.cameras;
+        if (!est.valid)
+          out.message = "not seen this cycle (" + est.reason + "); last pose repeated";
+        else if (est.label_corrected)
+          out.message = "label corrected by geometry";
+      } else {
+        out.valid = false;
+        out.age = ros::Duration(last_[e] ? age : 0.0);
+        out.message = last_[e] ? "last pose too old; " + est.reason : est.reason;
+      }
+      if (!out.message.empty()) message += std::string(out.label) + ": " + out.message + ". ";
+      status.ends.push_back(out.label);
+      status.points.push_back(est.points);
+      status.residual.push_back(est.residual);
+      ends.ends.push_back(out);
+    }
+    if (reported[0] && reported[1]) {
+      const PinInBoxRelation rel = pinInBox(reported[0]->T_world_end, reported[1]->T_world_end);
+      ends.pin_in_box.valid = true;
+      ends.pin_in_box.axial_standoff = rel.axial_standoff;
+      ends.pin_in_box.lateral_offset = rel.lateral_offset;
+      ends.pin_in_box.axis_angle = rel.axis_angle;
+    }
+    status.cutout_ms = r.timing.cutout_ms;
+    status.fusion_ms = r.timing.fusion_ms;
+    status.segmentation_ms = r.timing.segmentation_ms;
+    status.registration_ms = r.timing.registration_ms;
+    status.total_ms = r.timing.total_ms;
+    status.message = message;
+    ends_pub_.publish(ends);
+    status.latency_ms = (wallNow() - cycle.last_arrival) * 1e3;
+    status_pub_.publish(status);
+    publishDebug(r, stamp);
+  }
+
+  void publishPose(int e, const EndEstimate& est, const ros::Time& stamp) {
+    geometry_msgs::PoseWithCovarianceStamped p;
+    p.header.stamp = stamp;
+    p.header.frame_id = cfg_.world_frame;
+    p.pose.pose = tf2::toMsg(est.T_world_end);
+    for (int i = 0; i < 36; ++i) p.pose.covariance[i] = est.covariance(i / 6, i % 6);
+    pose_pubs_[e].publish(p);
+    tf_broadcaster_.sendTransform(
+        toTransformMsg(est.T_world_end, cfg_.world_frame, cfg_.end_frames[e], stamp));
+  }
+
+  sensor_msgs::PointCloud2 cloudMsg(
+      const std::vector<std::pair<const std::vector<Eigen::Vector3f>*, uint32_t>>& parts,
+      const ros::Time& stamp) {
+    sensor_msgs::PointCloud2 c;
+    c.header.stamp = stamp;
+    c.header.frame_id = cfg_.world_frame;
+    sensor_msgs::PointCloud2Modifier mod(c);
+    mod.setPointCloud2FieldsByString(2, "xyz", "rgb");
+    size_t n = 0;
+    for (const auto& p : parts) n += p.first->size();
+    mod.resize(n);
+    sensor_msgs::PointCloud2Iterator<float> x(c, "x"), y(c, "y"), z(c, "z");
+    sensor_msgs::PointCloud2Iterator<uint8_t> rgb(c, "rgb");
+    for (const auto& [pts, colour] : parts)
+      for (const auto& p : *pts) {
+        *x = p.x(), *y = p.y(), *z = p.z();
+        rgb[0] = colour & 0xff, rgb[1] = (colour >> 8) & 0xff, rgb[2] = (colour >> 16) & 0xff;
+        ++x, ++y, ++z, ++rgb;
+      }
+    return c;
+  }
+
+  void publishDebug(const CycleResult& r, const ros::Time& stamp) {
+    if (fused_pub_.getNumSubscribers() > 0)
+      fused_pub_.publish(cloudMsg({{&r.fused, 0xc0c0c0}}, stamp));
+    if (segmented_pub_.getNumSubscribers() > 0)
+      segmented_pub_.publish(
+          cloudMsg({{&r.segmented[0], 0x20a0ff}, {&r.segmented[1], 0xff6020}}, stamp));
+    if (marker_pub_.getNumSubscribers() == 0) return;
+    visualization_msgs::MarkerArray ma;
+    for (int e = 0; e < kNumEnds; ++e) {
+      visualization_msgs::Marker m;
+      m.header.stamp = stamp;
+      m.header.frame_id = cfg_.world_frame;
+      m.ns = labelName(static_cast<EndLabel>(e));
+      m.id = e;
+      m.type = visualization_msgs::Marker::MESH_RESOURCE;
+      m.mesh_resource = std::string("package://drill_pipe_pose/models/") + m.ns + ".stl";
+      m.scale.x = m.scale.y = m.scale.z = 1.0;
+      m.color.a = 0.8f;
+      m.color.r = e == 0 ? 0.1f : 1.0f;
+      m.color.g = e == 0 ? 0.6f : 0.4f;
+      m.color.b = e == 0 ? 1.0f : 0.1f;
+      if (r.ends[e].valid) {
+        m.action = visualization_msgs::Marker::ADD;
+        m.pose = tf2::toMsg(r.ends[e].T_world_end);
+      } else {
+        m.action = visualization_msgs::Marker::DELETE;
+      }
+      ma.markers.push_back(m);
+    }
+    marker_pub_.publish(ma);
+  }
+
+  void publishDiagnostics() {
+    diagnostic_msgs::DiagnosticArray arr;
+    arr.header.stamp = ros::Time::now();
+    const double now = wallNow();
+    for (const auto& cam : cfg_.cameras) {
+      const CameraSyncStats& st = sync_.stats().at(cam);
+      Counters& cnt = counters_[cam];
+      diagnostic_msgs::DiagnosticStatus s;
+      s.name = "drill_pipe_pose: camera " + cam;
+      s.hardware_id = cam;
+      const double rate = static_cast<double>(st.received - cnt.received_at_last_diag) /
+                          std::max(1e-3, now - last_diag_wall_);
+      cnt.received_at_last_diag = st.received;
+      if (st.received == 0) {
+        s.level = diagnostic_msgs::DiagnosticStatus::ERROR;
+        s.message = "no SensorFrame received yet on " + conventions::sensorFrameTopic(cam);
+      } else if (!st.live) {
+        s.level = diagnostic_msgs::DiagnosticStatus::ERROR;
+        s.message = "silent for " + std::to_string(now - st.last_arrival) + " s: left the fusion";
+      } else if (cnt.bad_input || cnt.tf_failures) {
+        s.level = diagnostic_msgs::DiagnosticStatus::WARN;
+        s.message = "frames dropped (bad input or TF)";
+      } else {
+        s.level = diagnostic_msgs::DiagnosticStatus::OK;
+        s.message = "ok";
+      }
+      auto kv = [&](const std::string& k, const std::string& v) {
+        diagnostic_msgs::KeyValue x;
+        x.key = k;
+        x.value = v;
+        s.values.push_back(x);
+      };
+      kv("rate [Hz]", std::to_string(rate));
+      kv("last stamp [s]", std::to_string(st.last_stamp_ns * 1e-9));
+      kv("received", std::to_string(st.received));
+      kv("used in cycles", std::to_string(st.used));
+      kv("dropped: too late for its cycle", std::to_string(st.dropped_stale));
+      kv("dropped: buffer overflow", std::to_string(st.dropped_overflow));
+      kv("dropped: bad input", std::to_string(cnt.bad_input));
+      kv("dropped: TF lookup failed", std::to_string(cnt.tf_failures));
+      arr.status.push_back(s);
+    }
+    last_diag_wall_ = now;
+    diag_pub_.publish(arr);
+    if (sync_.liveCameras().empty())
+      ROS_WARN_THROTTLE(10.0,
+                        "pose_estimator: no live camera (throttled, 10 s): is anything "
+                        "publishing <cam>/sensor_frame? (see /diagnostics)");
+  }
+
+  struct LastEstimate {
+    EndEstimate estimate;
+    int64_t stamp_ns;
+  };
+
+  ros::NodeHandle nh_, pnh_;
+  NodeConfig cfg_;
+  EstimatorConfig est_cfg_;
+  PoseEstimator estimator_;
+  FrameSynchronizer sync_;
+  tf2_ros::Buffer tf_buffer_;
+  tf2_ros::TransformListener tf_listener_;
+  tf2_ros::TransformBroadcaster tf_broadcaster_;
+  std::vector<ros::Subscriber> subs_;
+  std::array<ros::Publisher, kNumEnds> pose_pubs_;
+  ros::Publisher ends_pub_, status_pub_, diag_pub_, fused_pub_, segmented_pub_, marker_pub_;
+  ros::WallTimer poll_timer_, diag_timer_;
+  std::map<uint64_t, Stored> store_;
+  std::map<std::string, Counters> counters_;
+  std::array<std::optional<LastEstimate>, kNumEnds> last_;
+  uint64_t next_id_ = 0;
+  int64_t last_cycle_stamp_ns_ = 0;
+  double last_diag_wall_ = wallNow();
+};
+
+}  // namespace
+}  // namespace drill_pipe_pose
+
+int main(int argc, char** argv) {
+  ros::init(argc, argv, "pose_estimator");
+  try {
+    drill_pipe_pose::PoseEstimatorNode node(ros::NodeHandle(), ros::NodeHandle("~"));
+    ros::spin();
+  } catch (const drill_pipe_pose::InputError& e) {
+    ROS_FATAL("pose_estimator: %s", e.what());
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,156 @@
+// rig_simulator: publishes what a simulated rig's sensor nodes would publish, live, with ground
+// truth. Parameters (private):
+//   rig (path, default $(find drill_pipe_pose)/config/rigs/thesis_lab.yaml), scene (path,
+//   required), profile (ideal | kinect_v2_calibrated | kinect_v2_field), seed, simulated_detection
+//   (true: <cam>/sensor_frame with simulated boxes), color (false: kinect2_bridge-style colour +
+//   depth topics too, for a real detector), crop (false: crop SensorFrame depth to the boxes), rate
+//   (1.0: simulation seconds per wall second), publish_clock (false: stamp with wall time; true:
+//   publish /clock from simulation time, for use_sim_time), duration (0: forever).
+// When rendering cannot keep up with `rate`, simulation time (and /clock) slows down to what it
+// can render (with publish_clock), or frames are skipped with a throttled warning (without).
+#include <drill_pipe_pose/SensorFrame.h>
+#include <ros/package.h>
+#include <ros/ros.h>
+#include <rosgraph_msgs/Clock.h>
+#include <tf2_ros/static_transform_broadcaster.h>
+
+#include "drill_pipe_pose/core/depth_crop.hpp"
+#include "drill_pipe_pose/ros/conversions.hpp"
+#include "drill_pipe_pose/ros/params.hpp"
+#include "drill_pipe_pose/ros/sim_messages.hpp"
+
+namespace drill_pipe_pose {
+namespace {
+
+class RigSimulatorNode {
+ public:
+  explicit RigSimulatorNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh) {
+    const std::string pkg = ros::package::getPath("drill_pipe_pose");
+    std::string rig = pkg + "/config/rigs/thesis_lab.yaml", scene;
+    sim::SimulatorOptions opt;
+    opt.sensor_config_dir = pkg + "/config/sensors";
+    int seed = 1;
+    readParam(pnh, "rig", rig);
+    readParam(pnh, "scene", scene);
+    readParam(pnh, "profile", opt.profile);
+    readParam(pnh, "seed", seed);
+    readParam(pnh, "simulated_detection", opt.simulated_detection);
+    readParam(pnh, "color", opt.color);
+    readParam(pnh, "crop", crop_);
+    readNumber(pnh, "rate", rate_, 1e-3);
+    readParam(pnh, "publish_clock", publish_clock_);
+    readNumber(pnh, "duration", duration_, 0.0);
+    if (scene.empty())
+      fail("parameter ", pnh.resolveName("scene"),
+           " is missing: a scene file, e.g. $(find "
+           "drill_pipe_pose)/config/scenes/thesis_vertical.yaml");
+    opt.seed = static_cast<uint32_t>(seed);
+    opt.stamp_origin_ns = publish_clock_ ? 1000000000LL : toNs(ros::Time::now());
+    sim_ = sim::loadScenario(rig, scene, opt);
+
+    for (size_t i = 0; i < sim_->numCameras(); ++i) {
+      const std::string& cam = sim_->cameraName(i);
+      if (opt.simulated_detection)
+        frame_pubs_.push_back(nh_.advertise<SensorFrame>(conventions::sensorFrameTopic(cam), 5));
+    }
+    if (publish_clock_) clock_pub_ = nh_.advertise<rosgraph_msgs::Clock>("/clock", 10);
+    static_tf_.sendTransform(simStaticTransforms(*sim_));
+    ROS_INFO(
+        "rig_simulator: %zu cameras (rig %s), scene %s, profile %s, seed %d, simulated "
+        "detection %s, colour %s, crop %s, rate %.2f, %s",
+        sim_->numCameras(), rig.c_str(), scene.c_str(), opt.profile.c_str(), seed,
+        opt.simulated_detection ? "on" : "off", opt.color ? "on" : "off", crop_ ? "on" : "off",
+        rate_, publish_clock_ ? "publishing /clock" : "stamped with wall time");
+    wall0_ = ros::WallTime::now();
+    timer_ = nh_.createWallTimer(ros::WallDuration(0.002),
+                                 [this](const ros::WallTimerEvent&) { step(); });
+  }
+
+ private:
+  void step() {
+    const double target = (ros::WallTime::now() - wall0_).toSec() * rate_;
+    const double until = duration_ > 0 ? std::min(target, duration_) : target;
+    if (until <= t_done_) {
+      if (duration_ > 0 && t_done_ >= duration_ && !finished_) {
+        finished_ = true;
+        ROS_INFO("rig_simulator: %.1f s simulated, done", duration_);
+      }
+      return;
+    }
+    const ros::WallTime start = ros::WallTime::now();
+    for (const auto& c : sim_->captures(t_done_, until)) {
+      // Never let one step run for long: the rest of the captures go to the next step.
+      if ((ros::WallTime::now() - start).toSec() > 0.1) {
+        if (!publish_clock_) {
+          ROS_WARN_THROTTLE(10.0,
+                            "rig_simulator: rendering is behind real time; frames skipped "
+                            "(throttled, 10 s): lower ~rate or use ~publish_clock");
+          t_done_ = until;
+          wall0_ = ros::WallTime::now() - ros::WallDuration(until / rate_);
+        } else {
+          wall0_ = ros::WallTime::now() - ros::WallDuration(t_done_ / rate_);  // slow the clock
+        }
+        return;
+      }
+      publishCapture(c);
+      t_done_ = c.t + 1e-9;
+    }
+    t_done_ = until;
+  }
+
+  void publishCapture(const sim::Capture& c) {
+    if (publish_clock_) {
+      rosgraph_msgs::Clock clock;
+      clock.clock = fromNs(sim_->stampNs(c.t));
+      clock_pub_.publish(clock);
+    }
+    sim::RigSimulator::Frame frame = sim_->render(c.camera, c.t, c.frame_index);
+    if (!frame_pubs_.empty()) {
+      const SensorFrameData& sf =
+          crop_ ? cropDepthToBoxes(frame.sensor_frame, sim_->T_link_depth(c.camera))
+                : frame.sensor_frame;
+      frame_pubs_[c.camera].publish(toMsg(sf));
+    }
+    if (sim_->options().color) {
+      const KinectTopics k = simKinectTopics(*sim_, c.camera, frame);
+      for (const auto& [topic, img] : k.images) publisher<sensor_msgs::Image>(topic).publish(img);
+      for (const auto& [topic, info] : k.infos)
+        publisher<sensor_msgs::CameraInfo>(topic).publish(info);
+    }
+    for (const auto& [topic, pose] : simGroundTruth(*sim_, c.t))
+      publisher<geometry_msgs::PoseStamped>(topic).publish(pose);
+  }
+
+  template <typename M>
+  ros::Publisher& publisher(const std::string& topic) {
+    auto it = pubs_.find(topic);
+    if (it == pubs_.end()) it = pubs_.emplace(topic, nh_.advertise<M>(topic, 5)).first;
+    return it->second;
+  }
+
+  ros::NodeHandle nh_;
+  std::unique_ptr<sim::RigSimulator> sim_;
+  std::vector<ros::Publisher> frame_pubs_;
+  std::map<std::string, ros::Publisher> pubs_;
+  ros::Publisher clock_pub_;
+  tf2_ros::StaticTransformBroadcaster static_tf_;
+  ros::WallTimer timer_;
+  ros::WallTime wall0_;
+  double rate_ = 1.0, duration_ = 0.0, t_done_ = 0.0;
+  bool crop_ = false, publish_clock_ = false, finished_ = false;
+};
+
+}  // namespace
+}  // namespace drill_pipe_pose
+
+int main(int argc, char** argv) {
+  ros::init(argc, argv, "rig_simulator");
+  try {
+    drill_pipe_pose::RigSimulatorNode node(ros::NodeHandle(), ros::NodeHandle("~"));
+    ros::spin();
+  } catch (const drill_pipe_pose::InputError& e) {
+    ROS_FATAL("rig_simulator: %s", e.what());
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,71 @@
+#include "drill_pipe_pose/ros/sim_messages.hpp"
+
+#include <tf2_eigen/tf2_eigen.h>
+
+#include "drill_pipe_pose/core/conventions.hpp"
+#include "drill_pipe_pose/ros/conversions.hpp"
+
+namespace drill_pipe_pose {
+
+geometry_msgs::TransformStamped toTransformMsg(const Eigen::Isometry3d& T_parent_child,
+                                               const std::string& parent, const std::string& child,
+                                               const ros::Time& stamp) {
+  geometry_msgs::TransformStamped t = tf2::eigenToTransform(T_parent_child);
+  t.header.stamp = stamp;
+  t.header.frame_id = parent;
+  t.child_frame_id = child;
+  return t;
+}
+
+std::vector<geometry_msgs::TransformStamped> simStaticTransforms(const sim::RigSimulator& sim) {
+  std::vector<geometry_msgs::TransformStamped> out;
+  const ros::Time stamp = fromNs(sim.stampNs(0.0));
+  for (size_t i = 0; i < sim.numCameras(); ++i) {
+    const std::string& cam = sim.cameraName(i);
+    out.push_back(toTransformMsg(sim.publishedT_world_link(i), sim.worldFrame(),
+                                 conventions::linkFrame(cam), stamp));
+    out.push_back(toTransformMsg(Eigen::Isometry3d::Identity(), conventions::linkFrame(cam),
+                                 conventions::colorOpticalFrame(cam), stamp));
+    out.push_back(toTransformMsg(sim.T_link_depth(i), conventions::colorOpticalFrame(cam),
+                                 conventions::depthOpticalFrame(cam), stamp));
+  }
+  return out;
+}
+
+std::vector<std::pair<std::string, geometry_msgs::PoseStamped>> simGroundTruth(
+    const sim::RigSimulator& sim, double t) {
+  std::vector<std::pair<std::string, geometry_msgs::PoseStamped>> out;
+  for (const auto& e : sim.groundTruth(t)) {
+    geometry_msgs::PoseStamped p;
+    p.header.stamp = fromNs(sim.stampNs(t));
+    p.header.frame_id = sim.worldFrame();
+    p.pose = tf2::toMsg(e.T_world_end);
+    out.emplace_back(conventions::groundTruthTopic(e.label), p);
+  }
+  return out;
+}
+
+KinectTopics simKinectTopics(const sim::RigSimulator& sim, size_t camera,
+                             const sim::RigSimulator::Frame& frame) {
+  KinectTopics k;
+  const std::string& cam = sim.cameraName(camera);
+  const SensorFrameData& f = frame.sensor_frame;
+  if (!frame.bgr.empty()) {
+    sensor_msgs::Image img;
+    img.header.stamp = fromNs(f.stamp_ns);
+    img.header.frame_id = f.frame_id;
+    img.width = frame.color_width;
+    img.height = frame.color_height;
+    img.encoding = "bgr8";
+    img.step = 3 * frame.color_width;
+    img.data = frame.bgr;
+    k.images.emplace_back(conventions::colorImageTopic(cam), std::move(img));
+    k.infos.emplace_back(conventions::colorInfoTopic(cam), toMsg(f.color_info, f.stamp_ns));
+  }
+  k.images.emplace_back(conventions::depthImageTopic(cam),
+                        toMsg(f.depth, f.depth_stamp_ns, f.depth_frame_id));
+  k.infos.emplace_back(conventions::depthInfoTopic(cam), toMsg(f.depth_info, f.depth_stamp_ns));
+  return k;
+}
+
+}  // namespace drill_pipe_pose

@@ -1,0 +1,89 @@
+#include "drill_pipe_pose/sim/sensor_model.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "drill_pipe_pose/core/errors.hpp"
+#include "drill_pipe_pose/sim/yaml_util.hpp"
+
+namespace drill_pipe_pose::sim {
+
+SensorIntrinsics SensorIntrinsics::kinectV2() {
+  SensorIntrinsics s;
+  s.name = "kinect_v2";
+  // DESIGN.md "Algorithm notes": Kinect v2 depth 512x424 and QHD colour 960x540 (iai_kinect2
+  // factory calibration values of a typical unit).
+  s.depth = PinholeCamera::fromIntrinsics(512, 424, 365.4, 365.4, 260.9, 205.6);
+  s.color = PinholeCamera::fromIntrinsics(960, 540, 540.7, 540.7, 479.75, 269.75);
+  s.T_color_depth = Eigen::Isometry3d::Identity();
+  s.T_color_depth.translation() = Eigen::Vector3d(-0.0515, 0.0, -0.001);
+  s.frame_rate_hz = 30.0;
+  return s;
+}
+
+namespace {
+
+PinholeCamera readCamera(const YAML::Node& n, const std::string& where) {
+  const auto w = yamlGet<uint32_t>(n, "width", where);
+  const auto h = yamlGet<uint32_t>(n, "height", where);
+  const auto fx = yamlGet<double>(n, "fx", where), fy = yamlGet<double>(n, "fy", where);
+  const auto cx = yamlGet<double>(n, "cx", where), cy = yamlGet<double>(n, "cy", where);
+  if (w == 0 || h == 0) fail(where, ": width/height must be > 0");
+  if (!(fx > 0) || !(fy > 0)) fail(where, ": fx/fy must be > 0 (got ", fx, ", ", fy, ")");
+  return PinholeCamera::fromIntrinsics(w, h, fx, fy, cx, cy);
+}
+
+}  // namespace
+
+SensorIntrinsics loadSensorIntrinsics(const std::string& path) {
+  const YAML::Node root = yamlLoadFile(path);
+  SensorIntrinsics s;
+  s.name = yamlGet<std::string>(root, "name", path);
+  s.frame_rate_hz = yamlGetOr<double>(root, "frame_rate", 30.0, path);
+  if (!(s.frame_rate_hz > 0)) fail(path, ": frame_rate must be > 0");
+  s.depth = readCamera(yamlChild(root, "depth", path), path + ": depth");
+  s.color = readCamera(yamlChild(root, "color", path), path + ": color");
+  const YAML::Node tf = yamlChild(root, "color_to_depth_tf", path);
+  const std::string where = path + ": color_to_depth_tf";
+  s.T_color_depth = Eigen::Isometry3d::Identity();
+  s.T_color_depth.translation() = yamlVec3(tf, "translation", where);
+  s.T_color_depth.linear() = yamlQuaternion(tf, "rotation", where).toRotationMatrix();
+  return s;
+}
+
+SensorEffects sensorProfile(const std::string& name) {
+  SensorEffects e;  // defaults = kinect_v2_calibrated
+  if (name == "kinect_v2_calibrated") return e;
+  if (name == "kinect_v2_field") {
+    e.calibration_error = true;
+    e.max_depth_offset = 0.010;  // DESIGN.md: field depth offsets up to 10 mm
+    e.interference = true;
+    return e;
+  }
+  if (name == "ideal") {
+    e.axial_noise = e.lateral_noise = e.quantisation = e.dropout = e.flying_pixels = false;
+    e.depth_offset = e.interference = e.unsynchronised = e.calibration_error = false;
+    e.wear = e.mud = e.color_noise = false;
+    e.min_range = 0.0;
+    e.max_range = 100.0;
+    return e;
+  }
+  fail("sensor profile \"", name,
+       "\" is unknown (expected ideal, kinect_v2_calibrated or kinect_v2_field)");
+}
+
+double axialNoiseSigma(double z, double theta, double max_incidence_rad) {
+  theta = std::clamp(std::abs(theta), 0.0, max_incidence_rad);
+  const double g = theta / (M_PI_2 - theta);
+  const double mm = 1.5 - 0.5 * z + 0.3 * z * z + 0.1 * std::pow(z, 1.5) * g * g;
+  return std::max(mm, 0.1) * 1e-3;
+}
+
+double lateralNoiseSigmaPx(double theta, double max_incidence_rad) {
+  theta = std::clamp(std::abs(theta), 0.0, max_incidence_rad);
+  return 0.8 + 0.035 * theta / (M_PI_2 - theta);
+}
+
+}  // namespace drill_pipe_pose::sim

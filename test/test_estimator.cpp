@@ -1,0 +1,583 @@
+// Estimator pipeline (issue 4) on synthetic data: an analytic ray caster renders Kinect-v2-like
+// depth images of a tool joint (a body of revolution from toolJointProfile) plus clutter and a
+// ground plane; detector boxes come from projecting the joint into the colour image. Seeds are
+// printed on failure (SCOPED_TRACE).
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <random>
+
+#include "drill_pipe_pose/core/errors.hpp"
+#include "drill_pipe_pose/core/estimator/pose_estimator.hpp"
+#include "drill_pipe_pose/core/estimator/stages.hpp"
+#include "drill_pipe_pose/core/metrics.hpp"
+#include "drill_pipe_pose/core/pipe_end_frame.hpp"
+#include "drill_pipe_pose/core/tool_joint.hpp"
+
+using namespace drill_pipe_pose;
+
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+CameraInfoData depthInfo() {
+  CameraInfoData c;
+  c.width = 512;
+  c.height = 424;
+  c.distortion_model = "plumb_bob";
+  c.D = {0, 0, 0, 0, 0};
+  c.K = {365.4, 0, 260.9, 0, 365.4, 205.6, 0, 0, 1};
+  c.R = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  c.P = {365.4, 0, 260.9, 0, 0, 365.4, 205.6, 0, 0, 0, 1, 0};
+  return c;
+}
+
+CameraInfoData colorInfo() {
+  CameraInfoData c = depthInfo();
+  c.width = 960;
+  c.height = 540;
+  c.K = {540.7, 0, 479.75, 0, 540.7, 269.75, 0, 0, 1};
+  c.P = {540.7, 0, 479.75, 0, 0, 540.7, 269.75, 0, 0, 0, 1, 0};
+  return c;
+}
+
+/// Optical frame (z forward, x right, y down) at `eye` looking at `target`.
+Eigen::Isometry3d lookAt(const Eigen::Vector3d& eye, const Eigen::Vector3d& target) {
+  const Eigen::Vector3d z = (target - eye).normalized();
+  Eigen::Vector3d x = z.cross(Eigen::Vector3d::UnitZ());
+  if (x.norm() < 1e-6) x = Eigen::Vector3d::UnitX();
+  x.normalize();
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() << x, z.cross(x), z;
+  T.translation() = eye;
+  return T;
+}
+
+/// A tool joint in the scene.
+struct Joint {
+  EndLabel label;
+  Eigen::Isometry3d T_world_end;
+  ToolJointDimensions dims;  ///< rendered geometry (may be worn)
+  std::vector<ProfilePoint> profile;
+};
+
+/// A vertical clutter cylinder.
+struct Post {
+  Eigen::Vector2d xy;
+  double radius, z0, z1;
+};
+
+struct Scene {
+  std::vector<Joint> joints;
+  std::vector<Post> posts;
+  bool ground = true;
+};
+
+/// Smallest t > 0 where the ray o + t d (end frame) hits the surface of revolution of `profile`.
+double hitProfile(const std::vector<ProfilePoint>& prof, const Eigen::Vector3d& o,
+                  const Eigen::Vector3d& d) {
+  double best = std::numeric_limits<double>::infinity();
+  for (size_t i = 0; i < prof.size(); ++i) {
+    const ProfilePoint& a = prof[i];
+    const ProfilePoint& b = prof[(i + 1) % prof.size()];
+    if (std::abs(b.z - a.z) < 1e-12) {  // annulus in the plane z = a.z
+      if (std::abs(d.z()) < 1e-12) continue;
+      const double t = (a.z - o.z()) / d.z();
+      if (t <= 1e-6 || t >= best) continue;
+      const Eigen::Vector3d p = o + t * d;
+      const double r = std::hypot(p.x(), p.y());
+      if (r >= std::min(a.r, b.r) && r <= std::max(a.r, b.r)) best = t;
+      continue;
+    }
+    const double k = (b.r - a.r) / (b.z - a.z), c0 = a.r - k * a.z;  // r = c0 + k z
+    const double A = d.x() * d.x() + d.y() * d.y() - k * k * d.z() * d.z();
+    const double B = 2 * (o.x() * d.x() + o.y() * d.y() - k * d.z() * (c0 + k * o.z()));
+    const double C = o.x() * o.x() + o.y() * o.y() - (c0 + k * o.z()) * (c0 + k * o.z());
+    double roots[2];
+    int n = 0;
+    if (std::abs(A) < 1e-12) {
+      if (std::abs(B) > 1e-12) roots[n++] = -C / B;
+    } else {
+      const double disc = B * B - 4 * A * C;
+      if (disc < 0) continue;
+      const double s = std::sqrt(disc);
+      roots[n++] = (-B - s) / (2 * A);
+      roots[n++] = (-B + s) / (2 * A);
+    }
+    for (int j = 0; j < n; ++j) {
+      const double t = roots[j];
+      if (t <= 1e-6 || t >= best) continue;
+      const double z = o.z() + t * d.z();
+      if (z < std::min(a.z, b.z) || z > std::max(a.z, b.z) || c0 + k * z < 0) continue;
+      best = t;
+    }
+  }
+  return best;
+}
+
+double hitScene(const Scene& s, const Eigen::Vector3d& o, const Eigen::Vector3d& d) {
+  double best = std::numeric_limits<double>::infinity();
+  if (s.ground && d.z() < -1e-9) best = -o.z() / d.z();
+  for (const Joint& j : s.joints) {
+    const Eigen::Isometry3d T_end_world = j.T_world_end.inverse();
+    const Eigen::Vector3d oe = T_end_world * o, de = T_end_world.linear() * d;
+    // Bounding sphere around the joint's middle.
+    const Eigen::Vector3d c(0, 0, -0.3);
+    const Eigen::Vector3d oc = oe - c;
+    const double bb = oc.dot(de), cc = oc.squaredNorm() - 0.7 * 0.7;
+    if (bb * bb - cc < 0) continue;
+    best = std::min(best, hitProfile(j.profile, oe, de));
+  }
+  for (const Post& p : s.posts) {
+    const Eigen::Vector2d oc(o.x() - p.xy.x(), o.y() - p.xy.y()), dd(d.x(), d.y());
+    const double A = dd.squaredNorm(), B = 2 * oc.dot(dd),
+                 C = oc.squaredNorm() - p.radius * p.radius;
+    const double disc = B * B - 4 * A * C;
+    if (A < 1e-12 || disc < 0) continue;
+    const double t = (-B - std::sqrt(disc)) / (2 * A);
+    const double z = o.z() + t * d.z();
+    if (t > 0 && z >= p.z0 && z <= p.z1) best = std::min(best, t);
+  }
+  return best;
+}
+
+struct SimCamera {
+  std::string name;
+  Eigen::Isometry3d T_world_color;
+  Eigen::Isometry3d T_color_depth;
+  Eigen::Isometry3d T_world_depth() const { return T_world_color * T_color_depth.inverse(); }
+};
+
+struct RenderOptions {
+  double noise_scale = 0.0;  ///< x Fankhauser sigma
+  double box_jitter_px = 0.0;
+  uint32_t seed = 1;
+  bool swap_labels = false;
+};
+
+/// Renders one camera: depth image (16UC1) and a box per visible joint.
+CameraInput render(const Scene& scene, const SimCamera& cam, const RenderOptions& opt,
+                   std::mt19937* rng) {
+  CameraInput in;
+  in.frame.camera = cam.name;
+  in.frame.depth_info = depthInfo();
+  in.frame.color_info = colorInfo();
+  in.T_color_depth = cam.T_color_depth;
+  in.T_world_depth = cam.T_world_depth();
+  const PinholeCamera depth = PinholeCamera::fromCameraInfo(in.frame.depth_info, "sim");
+  const PinholeCamera color = PinholeCamera::fromCameraInfo(in.frame.color_info, "sim");
+  in.frame.depth = DepthImage::allocate(512, 424, DepthEncoding::kU16Millimetres);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  const Eigen::Isometry3d T_wd = in.T_world_depth;
+  for (uint32_t v = 0; v < 424; ++v)
+    for (uint32_t u = 0; u < 512; ++u) {
+      const Eigen::Vector3d ray = depth.backProject(u, v, 1.0);
+      const Eigen::Vector3d dw = (T_wd.linear() * ray).normalized();
+      const double t = hitScene(scene, T_wd.translation(), dw);
+      if (!std::isfinite(t)) continue;
+      double z = t / ray.norm();
+      if (z > 12.0) continue;
+      if (opt.noise_scale > 0)
+        z += opt.noise_scale * (1.5 - 0.5 * z + 0.3 * z * z) * 1e-3 * gauss(*rng);
+      in.frame.depth.setDepth(u, v, static_cast<float>(z));
+    }
+  const Eigen::Isometry3d T_color_world = cam.T_world_color.inverse();
+  for (const Joint& j : scene.joints) {
+    const double zlo =
+        -(j.label == EndLabel::kBoxEnd ? j.dims.box_tong_length : j.dims.pin_tong_length) -
+        j.dims.taperLength();
+    const double zhi = j.label == EndLabel::kBoxEnd ? 0.0 : j.dims.pin_length;
+    double x0 = 1e9, y0 = 1e9, x1 = -1e9, y1 = -1e9;
+    for (const auto& s : sampleProfileSurface(j.profile, 0.01, 1, true)) {
+      if (s.p.z() < zlo - 1e-6 || s.p.z() > zhi + 1e-6) continue;
+      Eigen::Vector2d uv;
+      if (!color.project(T_color_world * (j.T_world_end * s.p.cast<double>()), &uv)) continue;
+      x0 = std::min(x0, uv.x());
+      x1 = std::max(x1, uv.x());
+      y0 = std::min(y0, uv.y());
+      y1 = std::max(y1, uv.y());
+    }
+    if (x1 < 0 || y1 < 0 || x0 > 959 || y0 > 539) continue;
+    DetectionBox b;
+    b.label = opt.swap_labels ? static_cast<EndLabel>(1 - static_cast<int>(j.label)) : j.label;
+    b.confidence = 0.9f;
+    std::normal_distribution<double> jit(0.0, opt.box_jitter_px);
+    const double jx0 = opt.box_jitter_px > 0 ? jit(*rng) : 0,
+                 jx1 = opt.box_jitter_px > 0 ? jit(*rng) : 0;
+    const double jy0 = opt.box_jitter_px > 0 ? jit(*rng) : 0,
+                 jy1 = opt.box_jitter_px > 0 ? jit(*rng) : 0;
+    b.x_min = std::max(0.0, x0 + jx0);
+    b.x_max = std::min(959.0, x1 + jx1);
+    b.y_min = std::max(0.0, y0 + jy0);
+    b.y_max = std::min(539.0, y1 + jy1);
+    in.frame.boxes.push_back(b);
+  }
+  return in;
+}
+
+/// Six cameras around `centre` on a circle of `radius` at `height` (thesis-like rig).
+std::vector<SimCamera> ring(const Eigen::Vector3d& centre, double radius, double height,
+                            int n = 6) {
+  std::vector<SimCamera> cams;
+  for (int i = 0; i < n; ++i) {
+    const double a = 2 * M_PI * i / n + 0.3;
+    SimCamera c;
+    c.name = "cam" + std::to_string(i + 1);
+    const Eigen::Vector3d eye =
+        centre + Eigen::Vector3d(radius * std::cos(a), radius * std::sin(a), 0);
+    c.T_world_color = lookAt(Eigen::Vector3d(eye.x(), eye.y(), height), centre);
+    c.T_color_depth = Eigen::Isometry3d::Identity();
+    c.T_color_depth.translation() = Eigen::Vector3d(0.0515, 0.0, 0.001);  // as read from TF
+    cams.push_back(c);
+  }
+  return cams;
+}
+
+Joint makeJoint(EndLabel label, const Eigen::Isometry3d& T, const ToolJointDimensions& dims = {}) {
+  return {label, canonicalize(T), dims, toolJointProfile(label, dims)};
+}
+
+Eigen::Isometry3d poseAt(const Eigen::Vector3d& origin, const Eigen::Vector3d& z) {
+  return canonicalPose(origin, z);
+}
+
+std::vector<CameraInput> renderAll(const Scene& scene, const std::vector<SimCamera>& cams,
+                                   const RenderOptions& opt) {
+  std::mt19937 rng(opt.seed);
+  std::vector<CameraInput> out;
+  for (const auto& c : cams) out.push_back(render(scene, c, opt, &rng));
+  return out;
+}
+
+EstimatorConfig testConfig() {
+  EstimatorConfig c;
+  c.work_zone.min = Eigen::Vector3d(-20, -20, 0.02);  // drops the ground
+  c.work_zone.max = Eigen::Vector3d(20, 20, 6);
+  return c;
+}
+
+std::string describe(const EndEstimate& e) {
+  std::ostringstream s;
+  s << labelName(e.label) << " valid=" << e.valid << " reason='" << e.reason
+    << "' points=" << e.points << " residual=" << e.residual * 1000
+    << "mm corrected=" << e.label_corrected << " pos=" << e.T_world_end.translation().transpose()
+    << " z=" << e.T_world_end.linear().col(2).transpose();
+  return s.str();
+}
+
+/// Mahalanobis distance^2 of the position error under the estimate's position covariance.
+double positionMahalanobis2(const EndEstimate& e, const Eigen::Isometry3d& truth) {
+  const Eigen::Vector3d d = e.T_world_end.translation() - truth.translation();
+  return d.dot(e.covariance.block<3, 3>(0, 0).ldlt().solve(d));
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+
+TEST(EstimatorConfig, RejectsBadKeysByName) {
+  EstimatorConfig c;
+  EXPECT_NO_THROW(validateConfig(c));
+  c.carving.min_cameras = 0;
+  try {
+    validateConfig(c);
+    FAIL() << "accepted carving.min_cameras = 0";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("carving.min_cameras"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(parseEstimatorMethod("icp", "test"), InputError);
+  EXPECT_EQ(parseEstimatorMethod("thesis_baseline", "test"), EstimatorMethod::kThesisBaseline);
+}
+
+TEST(CutOut, KeepsOnlyPixelsRegisteringIntoTheBoxAndCropIsEquivalent) {
+  Scene scene;
+  scene.joints.push_back(makeJoint(EndLabel::kBoxEnd, poseAt({5, 5, 1.2}, {0, 0, 1})));
+  const auto cams = ring({5, 5, 1.0}, 5.5, 4.5);
+  const auto inputs = renderAll(scene, cams, {});
+  const CameraInput& in = inputs[0];
+  ASSERT_EQ(in.frame.boxes.size(), 1u);
+  EstimatorConfig cfg;
+  cfg.cutout.box_margin_px = 0.0;
+  const CycleCamera cam = makeCycleCamera(in.frame, in.T_world_depth, in.T_color_depth, 0.0f);
+  std::array<std::vector<CloudPoint>, kNumEnds> out;
+  cutOutCamera(cam, 0, cfg, &out);
+  ASSERT_GT(out[0].size(), 100u);
+  EXPECT_TRUE(out[1].empty());
+  // Brute force over the full image: the same number of in-box pixels.
+  const DepthToColorRegistration reg(cam.depth, cam.color, cam.T_color_depth);
+  const DepthProjector proj(cam.depth);
+  const DetectionBox& b = in.frame.boxes[0];
+  size_t brute = 0;
+  for (const auto& p : proj.allPoints(in.frame.depth)) {
+    Eigen::Vector2d uv;
+    Eigen::Vector2d dpx(0, 0);
+    if (!cam.depth.project(p.cast<double>(), &dpx)) continue;
+    if (!reg.registerPixel(std::round(dpx.x()), std::round(dpx.y()), p.z(), &uv)) continue;
+    if (uv.x() >= b.x_min && uv.x() <= b.x_max && uv.y() >= b.y_min && uv.y() <= b.y_max) ++brute;
+  }
+  EXPECT_EQ(out[0].size(), brute);
+  // Every point registers into the box.
+  const Eigen::Isometry3d T_color_world = cam.T_color_world;
+  for (const auto& p : out[0]) {
+    Eigen::Vector2d uv;
+    ASSERT_TRUE(cam.color.project(T_color_world * p.p_world.cast<double>(), &uv));
+    EXPECT_GE(uv.x(), b.x_min - 0.01);
+    EXPECT_LE(uv.x(), b.x_max + 0.01);
+  }
+  // Cropped depth (roi) around the object gives the same points.
+  SensorFrameData cropped = in.frame;
+  ImageRoi roi{150, 100, 200, 220};
+  cropped.depth_info.roi = roi;
+  cropped.depth = DepthImage::allocate(roi.width, roi.height, DepthEncoding::kU16Millimetres);
+  for (uint32_t v = 0; v < roi.height; ++v)
+    for (uint32_t u = 0; u < roi.width; ++u)
+      cropped.depth.setDepth(u, v, in.frame.depth.depthAt(u + roi.x_offset, v + roi.y_offset));
+  const CycleCamera cc = makeCycleCamera(cropped, in.T_world_depth, in.T_color_depth, 0.0f);
+  std::array<std::vector<CloudPoint>, kNumEnds> out2;
+  cutOutCamera(cc, 0, cfg, &out2);
+  ASSERT_EQ(out2[0].size(), out[0].size());
+  for (size_t i = 0; i < out[0].size(); ++i)
+    EXPECT_LT((out[0][i].p_world - out2[0][i].p_world).norm(), 1e-5f);
+}
+
+TEST(Carving, RemovesClutterSeenInsideOneCameraBoxOnly) {
+  Scene scene;
+  const Eigen::Vector3d c(5, 5, 1.2);
+  scene.joints.push_back(makeJoint(EndLabel::kBoxEnd, poseAt(c, {0, 0, 1})));
+  auto cams = ring({5, 5, 1.0}, 5.5, 4.5);
+  // A post 0.35 m behind the joint as cam1 sees it.
+  const Eigen::Vector3d view = (c - cams[0].T_world_color.translation());
+  const Eigen::Vector2d dir = Eigen::Vector2d(view.x(), view.y()).normalized();
+  scene.posts.push_back({Eigen::Vector2d(c.x(), c.y()) + 0.35 * dir, 0.06, 0.0, 2.0});
+  const auto inputs = renderAll(scene, cams, {});
+  EstimatorConfig cfg = testConfig();
+  std::vector<CycleCamera> cc;
+  std::array<std::vector<CloudPoint>, kNumEnds> raw;
+  for (size_t i = 0; i < inputs.size(); ++i) {
+    cc.push_back(
+        makeCycleCamera(inputs[i].frame, inputs[i].T_world_depth, inputs[i].T_color_depth, 0));
+    cutOutCamera(cc.back(), i, cfg, &raw);
+  }
+  auto axisDist = [&](const Eigen::Vector3f& p) {
+    return std::hypot(p.x() - c.x(), p.y() - c.y());
+  };
+  size_t clutter_before = 0;
+  for (const auto& p : raw[0]) clutter_before += axisDist(p.p_world) > 0.12;
+  const auto kept = carve(raw[0], EndLabel::kBoxEnd, cc, cfg.carving);
+  size_t clutter_after = 0, pipe_after = 0, pipe_before = raw[0].size() - clutter_before;
+  for (const auto& p : kept) {
+    clutter_after += axisDist(p.p_world) > 0.12;
+    pipe_after += axisDist(p.p_world) <= 0.12;
+  }
+  EXPECT_GT(clutter_before, 20u);
+  EXPECT_EQ(clutter_after, 0u);
+  EXPECT_GT(pipe_after, 0.9 * pipe_before);
+}
+
+TEST(AxisFit, KnownAxisUnderNoiseAndOutliers) {
+  for (uint32_t seed = 1; seed <= 10; ++seed) {
+    SCOPED_TRACE("seed " + std::to_string(seed));
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> uni(-1, 1);
+    std::normal_distribution<double> gauss(0, 0.006);
+    const Eigen::Vector3d axis = Eigen::Vector3d(uni(rng), uni(rng), uni(rng)).normalized();
+    const Eigen::Vector3d origin(5 + uni(rng), 5 + uni(rng), 1 + uni(rng));
+    const Eigen::Isometry3d T = canonicalPose(origin, axis);
+    const double R = 0.08415;
+    std::vector<Eigen::Vector3f> pts;
+    for (int i = 0; i < 2000; ++i) {
+      const double phi = M_PI * (uni(rng) + 1) * 0.6;  // ~ 216 deg of the surface seen
+      const double z = -0.3 * (uni(rng) + 1) / 2;
+      const double r = R + gauss(rng);
+      pts.push_back((T * Eigen::Vector3d(r * std::cos(phi), r * std::sin(phi), z)).cast<float>());
+    }
+    for (int i = 0; i < 500; ++i)  // 20 % outliers within 0.5 m
+      pts.push_back((origin + 0.5 * Eigen::Vector3d(uni(rng), uni(rng), uni(rng))).cast<float>());
+    EstimatorConfig::AxisFit cfg;
+    cfg.seed = seed;
+    cfg.max_points = 2500;  // the pipeline uses fewer: its axis is only the initial guess
+    const AxisFitResult r = fitCylinderAxis(pts, R, cfg);
+    ASSERT_TRUE(r.ok);
+    const double angle = std::acos(std::min(1.0, std::abs(r.axis.direction.dot(axis))));
+    EXPECT_LT(angle, 0.5 * kDeg);
+    const Eigen::Vector3d q = origin - r.axis.point;
+    EXPECT_LT((q - q.dot(axis) * axis).norm(), 0.004);
+  }
+}
+
+namespace {
+
+struct Trial {
+  EndLabel label;
+  Eigen::Isometry3d T;
+};
+
+/// Runs the estimator on a rendered scene and checks the errors of every joint.
+void checkScene(const Scene& scene, const std::vector<SimCamera>& cams, const RenderOptions& opt,
+                double pos_tol, double angle_tol, const EstimatorConfig& cfg = testConfig(),
+                bool expect_corrected = false) {
+  PoseEstimator est(cfg);
+  const auto inputs = renderAll(scene, cams, opt);
+  const CycleResult r = est.process(inputs);
+  for (const Joint& j : scene.joints) {
+    const EndEstimate& e = r.end(j.label);
+    SCOPED_TRACE(describe(e));
+    ASSERT_TRUE(e.valid);
+    EXPECT_EQ(e.label, j.label);
+    EXPECT_EQ(e.label_corrected, expect_corrected);
+    const PoseError err = poseError(j.T_world_end, e.T_world_end);
+    EXPECT_LT(err.position_norm, pos_tol)
+        << "along " << err.along_axis << " across " << err.across_axis;
+    EXPECT_LT(err.axis_angle, angle_tol);
+    EXPECT_LT(positionMahalanobis2(e, j.T_world_end), 3.0 * 3.0 * 3.0);  // well inside 3-sigma^2*3
+    // Roll canonical.
+    EXPECT_LT((e.T_world_end.linear() - canonicalRotation(e.T_world_end.linear().col(2))).norm(),
+              1e-9);
+  }
+}
+
+}  // namespace
+
+TEST(PoseEstimator, CleanVerticalBoxAndPin) {
+  Scene scene;
+  scene.joints.push_back(makeJoint(EndLabel::kBoxEnd, poseAt({4.694, 5.3, 1.23}, {0, 0, 1})));
+  scene.joints.push_back(makeJoint(EndLabel::kPinEnd, poseAt({4.694, 6.8, 1.327}, {0, 0, 1})));
+  checkScene(scene, ring({5, 5, 1.0}, 5.5, 4.5), {}, 0.004, 0.3 * kDeg);
+}
+
+TEST(PoseEstimator, NoisyRandomPoses) {
+  for (uint32_t seed = 1; seed <= 6; ++seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> uni(-1, 1);
+    SCOPED_TRACE("seed " + std::to_string(seed));
+    Scene scene;
+    for (EndLabel l : {EndLabel::kBoxEnd, EndLabel::kPinEnd}) {
+      const Eigen::Vector3d z = Eigen::Vector3d(uni(rng), uni(rng), uni(rng)).normalized();
+      const Eigen::Vector3d o(5 + 0.5 * uni(rng) + (l == EndLabel::kPinEnd ? 1.2 : -0.5),
+                              5 + uni(rng), 1.5 + 0.3 * uni(rng));
+      scene.joints.push_back(makeJoint(l, poseAt(o, z)));
+    }
+    RenderOptions opt;
+    opt.noise_scale = 1.0;
+    opt.box_jitter_px = 3.0;
+    opt.seed = seed;
+    checkScene(scene, ring({5, 5, 1.0}, 5.5, 4.5), opt, 0.012, 1.0 * kDeg);
+  }
+}
+
+TEST(PoseEstimator, WornJointsPositionRestsOnTheShoulder) {
+  ToolJointDimensions worn;
+  worn.tool_joint_od -= 0.002;
+  worn.box_tong_length -= 0.020;
+  worn.pin_tong_length -= 0.020;
+  Scene scene;
+  scene.joints.push_back(
+      makeJoint(EndLabel::kBoxEnd, poseAt({4.7, 5.3, 1.3}, {0.5, 0, 0.866}), worn));
+  scene.joints.push_back(makeJoint(EndLabel::kPinEnd, poseAt({4.7, 6.8, 1.3}, {0, 0, 1}), worn));
+  RenderOptions opt;
+  opt.noise_scale = 1.0;
+  checkScene(scene, ring({5, 5, 1.0}, 5.5, 4.5), opt, 0.008, 1.0 * kDeg);
+}
+
+TEST(PoseEstimator, HorizontalAndHangingWithClutterAndOneCamera) {
+  Scene scene;
+  scene.joints.push_back(makeJoint(EndLabel::kPinEnd, poseAt({5.0, 5.0, 1.5}, {1, 0.3, 0})));
+  scene.joints.push_back(makeJoint(EndLabel::kBoxEnd, poseAt({5.8, 6.5, 2.0}, {0, 0, -1})));
+  scene.posts.push_back({Eigen::Vector2d(5.0, 5.4), 0.08, 0.0, 2.2});
+  scene.posts.push_back({Eigen::Vector2d(6.2, 6.5), 0.1, 0.0, 3.0});
+  RenderOptions opt;
+  opt.noise_scale = 1.0;
+  opt.box_jitter_px = 2.0;
+  checkScene(scene, ring({5, 5, 1.0}, 5.5, 4.5), opt, 0.015, 1.5 * kDeg);
+  // One camera only.
+  Scene single;
+  single.joints.push_back(makeJoint(EndLabel::kBoxEnd, poseAt({5, 5, 1.2}, {0.3, 0, 0.95})));
+  checkScene(single, {ring({5, 5, 1.0}, 5.5, 4.5)[0]}, opt, 0.025, 3.0 * kDeg);
+}
+
+TEST(PoseEstimator, SwappedLabelsAreCorrectedByGeometry) {
+  Scene scene;
+  scene.joints.push_back(makeJoint(EndLabel::kBoxEnd, poseAt({4.694, 5.3, 1.23}, {0, 0, 1})));
+  scene.joints.push_back(makeJoint(EndLabel::kPinEnd, poseAt({4.694, 6.8, 1.327}, {0, 0, 1})));
+  RenderOptions opt;
+  opt.noise_scale = 1.0;
+  opt.swap_labels = true;
+  checkScene(scene, ring({5, 5, 1.0}, 5.5, 4.5), opt, 0.01, 1.0 * kDeg, testConfig(), true);
+  // A single swapped end: the pin's points are moved to the pin slot; the box slot is empty.
+  Scene one;
+  one.joints.push_back(makeJoint(EndLabel::kPinEnd, poseAt({5, 5, 1.3}, {0, 0, 1})));
+  PoseEstimator est(testConfig());
+  const CycleResult r = est.process(renderAll(one, ring({5, 5, 1.0}, 5.5, 4.5), opt));
+  EXPECT_TRUE(r.end(EndLabel::kPinEnd).valid) << describe(r.end(EndLabel::kPinEnd));
+  EXPECT_TRUE(r.end(EndLabel::kPinEnd).label_corrected);
+  EXPECT_FALSE(r.end(EndLabel::kBoxEnd).valid);
+  EXPECT_NE(r.end(EndLabel::kBoxEnd).reason.find("label corrected"), std::string::npos)
+      << r.end(EndLabel::kBoxEnd).reason;
+}
+
+TEST(PoseEstimator, EmptyInputAndNoBoxesGiveReasons) {
+  PoseEstimator est(testConfig());
+  CycleResult r = est.process({});
+  for (const auto& e : r.ends) {
+    EXPECT_FALSE(e.valid);
+    EXPECT_FALSE(e.reason.empty());
+  }
+  Scene scene;
+  scene.joints.push_back(makeJoint(EndLabel::kBoxEnd, poseAt({5, 5, 1.2}, {0, 0, 1})));
+  auto inputs = renderAll(scene, ring({5, 5, 1.0}, 5.5, 4.5), {});
+  for (auto& in : inputs) in.frame.boxes.clear();
+  // A bad camera is skipped and named; the others go on.
+  inputs[1].frame.depth_info.P[0] = std::nan("");
+  r = est.process(inputs);
+  for (const auto& e : r.ends) {
+    EXPECT_FALSE(e.valid);
+    EXPECT_NE(e.reason.find("detection"), std::string::npos) << e.reason;
+  }
+  ASSERT_EQ(r.camera_errors.size(), 1u);
+  EXPECT_NE(r.camera_errors[0].find("cam2"), std::string::npos) << r.camera_errors[0];
+}
+
+TEST(PoseEstimator, TimingSixCameras) {
+  Scene scene;
+  scene.joints.push_back(makeJoint(EndLabel::kBoxEnd, poseAt({4.694, 5.3, 1.23}, {0, 0, 1})));
+  scene.joints.push_back(makeJoint(EndLabel::kPinEnd, poseAt({4.694, 6.8, 1.327}, {0, 0, 1})));
+  RenderOptions opt;
+  opt.noise_scale = 1.0;
+  const auto inputs = renderAll(scene, ring({5, 5, 1.0}, 5.5, 4.5), opt);
+  PoseEstimator est(testConfig());
+  std::vector<double> ms;
+  for (int i = 0; i < 20; ++i) ms.push_back(est.process(inputs).timing.total_ms);
+  const CycleResult r = est.process(inputs);
+  std::printf("six-camera cycle: median %.2f ms (cutout %.2f fusion %.2f seg %.2f reg %.2f)\n",
+              percentile(ms, 0.5), r.timing.cutout_ms, r.timing.fusion_ms, r.timing.segmentation_ms,
+              r.timing.registration_ms);
+  EXPECT_LT(percentile(ms, 0.5), 50.0);
+}
+
+TEST(ThesisBaseline, RunsTheThesisStepsOnAVerticalPipe) {
+  Scene scene;
+  scene.joints.push_back(makeJoint(EndLabel::kBoxEnd, poseAt({4.694, 5.3, 1.23}, {0, 0, 1})));
+  scene.joints.push_back(makeJoint(EndLabel::kPinEnd, poseAt({4.694, 6.8, 1.327}, {0, 0, 1})));
+  RenderOptions opt;
+  opt.noise_scale = 1.0;
+  EstimatorConfig cfg = testConfig();
+  cfg.method = EstimatorMethod::kThesisBaseline;
+  cfg.baseline.icp_runs = 2;  // keep the test fast (the thesis: 10 x 200)
+  cfg.baseline.icp_iterations = 25;
+  PoseEstimator est(cfg);
+  CycleResult r;
+  for (uint32_t k = 0; k < 3; ++k) {
+    opt.seed = k + 1;
+    r = est.process(renderAll(scene, ring({5, 5, 1.0}, 5.5, 4.5), opt));
+  }
+  for (const Joint& j : scene.joints) {
+    const EndEstimate& e = r.end(j.label);
+    SCOPED_TRACE(describe(e));
+    ASSERT_TRUE(e.valid);
+    const PoseError err = poseError(j.T_world_end, e.T_world_end);
+    std::printf("baseline %s: position error %.1f mm, axis %.2f deg, %.1f ms\n", labelName(j.label),
+                err.position_norm * 1000, err.axis_angle / kDeg, r.timing.total_ms);
+    EXPECT_LT(err.position_norm, 0.15);
+  }
+}

@@ -1,0 +1,183 @@
+// Estimator on rendered simulator frames (sim::RigSimulator): short thesis scenario sequences with
+// the kinect_v2_calibrated profile and the simulated detector, scored with the core metrics.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <iostream>
+#include <map>
+#include <string>
+
+#include "drill_pipe_pose/core/estimator/pose_estimator.hpp"
+#include "drill_pipe_pose/core/metrics.hpp"
+#include "drill_pipe_pose/sim/rig_simulator.hpp"
+
+using namespace drill_pipe_pose;
+
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+struct SequenceStats {
+  std::array<ErrorStats, kNumEnds> stats;
+  std::array<size_t, kNumEnds> inside_3sigma{{0, 0}};
+  std::vector<double> cycle_ms;
+};
+
+/// Renders `cycles` cycles (one frame per camera each) of a scenario and runs the estimator.
+SequenceStats runScenario(const std::string& scene, const std::string& profile, uint32_t seed,
+                          int cycles, EstimatorMethod method = EstimatorMethod::kOurs) {
+  const std::string dir = DRILL_PIPE_POSE_SOURCE_DIR;
+  sim::SimulatorOptions opt;
+  opt.profile = profile;
+  opt.seed = seed;
+  opt.sensor_config_dir = dir + "/config/sensors";
+  opt.stamp_origin_ns = 1000000000;
+  auto simulator = sim::loadScenario(dir + "/config/rigs/thesis_lab.yaml",
+                                     dir + "/config/scenes/" + scene + ".yaml", opt);
+  EstimatorConfig cfg;
+  cfg.method = method;
+  cfg.work_zone.min = simulator->workZone().min;
+  cfg.work_zone.max = simulator->workZone().max;
+  PoseEstimator est(cfg);
+  std::array<std::vector<PoseError>, kNumEnds> errors;
+  std::array<std::vector<Eigen::Vector3d>, kNumEnds> positions;
+  SequenceStats out;
+  for (int k = 0; k < cycles; ++k) {
+    std::vector<CameraInput> inputs;
+    double t_last = 0;
+    for (size_t i = 0; i < simulator->numCameras(); ++i) {
+      const double t = simulator->captureTime(i, k);
+      t_last = std::max(t_last, t);
+      CameraInput in;
+      in.frame = simulator->render(i, t, k).sensor_frame;
+      in.T_color_depth = simulator->T_link_depth(i);
+      in.T_world_depth = simulator->publishedT_world_link(i) * simulator->T_link_depth(i);
+      inputs.push_back(std::move(in));
+    }
+    const CycleResult r = est.process(inputs);
+    out.cycle_ms.push_back(r.timing.total_ms);
+    for (const auto& truth : simulator->groundTruth(t_last)) {
+      const int l = static_cast<int>(truth.label);
+      const EndEstimate& e = r.ends[l];
+      if (!e.valid) {
+        std::printf("cycle %d %s invalid: %s\n", k, labelName(truth.label), e.reason.c_str());
+        continue;
+      }
+      const PoseError err = poseError(truth.T_world_end, e.T_world_end);
+      errors[l].push_back(err);
+      if (getenv("DRILL_PIPE_POSE_VERBOSE"))
+        std::printf(
+            "cycle %d %s along %+.1f mm across %.1f mm axis %.2f deg corrected %d res %.1f mm n "
+            "%zu\n",
+            k, labelName(truth.label), err.along_axis * 1e3, err.across_axis * 1e3,
+            err.axis_angle / kDeg, e.label_corrected, e.residual * 1e3, e.points);
+      positions[l].push_back(e.T_world_end.translation());
+      const Eigen::Vector3d d = err.position;
+      if (d.dot(e.covariance.block<3, 3>(0, 0).ldlt().solve(d)) <= 9.0) ++out.inside_3sigma[l];
+    }
+  }
+  for (int l = 0; l < kNumEnds; ++l)
+    out.stats[l] = computeStats(errors[l], positions[l], static_cast<size_t>(cycles));
+  return out;
+}
+
+void print(const std::string& name, const SequenceStats& s) {
+  for (int l = 0; l < kNumEnds; ++l) {
+    const ErrorStats& st = s.stats[l];
+    std::printf(
+        "%s %s: %zu/%zu valid, mean |e| %.1f mm (p95 %.1f), mean error (%.1f %.1f %.1f) mm, std "
+        "(%.1f "
+        "%.1f %.1f) mm, axis mean %.2f deg p95 %.2f, within 1cm/1deg %.0f %%, inside 3-sigma %zu\n",
+        name.c_str(), labelName(static_cast<EndLabel>(l)), st.estimates, st.expected_cycles,
+        st.mean_position_error * 1e3, st.p95_position_error * 1e3, st.mean_error.x() * 1e3,
+        st.mean_error.y() * 1e3, st.mean_error.z() * 1e3, st.std_position.x() * 1e3,
+        st.std_position.y() * 1e3, st.std_position.z() * 1e3, st.mean_axis_angle / kDeg,
+        st.p95_axis_angle / kDeg, 100 * st.fractionWithin(0.01, kDeg), s.inside_3sigma[l]);
+  }
+  std::vector<double> ms = s.cycle_ms;
+  std::printf("%s: cycle median %.2f ms, p95 %.2f ms\n", name.c_str(), percentile(ms, 0.5),
+              percentile(ms, 0.95));
+}
+
+}  // namespace
+
+// Smoke bounds of what the pipeline achieves today on 30 rendered cycles (see the README/issue 4
+// targets for the real goals: 5 mm / 0.5 deg; this scenario's box-end shows only 0.23 m of tong
+// above the floor, and about 15 % of its cycles still get the axis direction flipped).
+TEST(EstimatorOnSimulator, ThesisVerticalCalibrated) {
+  const SequenceStats s = runScenario("thesis_vertical", "kinect_v2_calibrated", 7, 30);
+  print("thesis_vertical", s);
+  for (int l = 0; l < kNumEnds; ++l) {
+    const ErrorStats& st = s.stats[l];
+    SCOPED_TRACE(labelName(static_cast<EndLabel>(l)));
+    EXPECT_GE(st.estimates, 27u);
+    EXPECT_LT(st.p50_position_error, 0.03);
+    EXPECT_GE(s.inside_3sigma[l], st.estimates * 8 / 10);
+  }
+  const ErrorStats& pin = s.stats[static_cast<int>(EndLabel::kPinEnd)];
+  EXPECT_LT(pin.mean_position_error, 0.015);
+  EXPECT_LT(pin.mean_axis_angle, 2.0 * kDeg);
+}
+
+// The issue-4 targets on thesis_vertical (disabled until met; run with
+// --gtest_also_run_disabled_tests to see the figures).
+TEST(EstimatorOnSimulator, DISABLED_ThesisVerticalTargets) {
+  const SequenceStats s = runScenario("thesis_vertical", "kinect_v2_calibrated", 7, 30);
+  print("thesis_vertical", s);
+  for (int l = 0; l < kNumEnds; ++l) {
+    const ErrorStats& st = s.stats[l];
+    SCOPED_TRACE(labelName(static_cast<EndLabel>(l)));
+    EXPECT_LT(st.mean_position_error, 0.005);
+    EXPECT_LT(st.std_position.maxCoeff(), 0.003);
+    EXPECT_LT(st.mean_axis_angle, 0.5 * kDeg);
+  }
+}
+
+TEST(EstimatorOnSimulator, DISABLED_DumpProfile) {
+  const std::string dir = DRILL_PIPE_POSE_SOURCE_DIR;
+  sim::SimulatorOptions opt;
+  opt.profile = "kinect_v2_calibrated";
+  opt.seed = 7;
+  opt.sensor_config_dir = dir + "/config/sensors";
+  opt.stamp_origin_ns = 1000000000;
+  auto simulator = sim::loadScenario(dir + "/config/rigs/thesis_lab.yaml",
+                                     dir + "/config/scenes/thesis_vertical.yaml", opt);
+  EstimatorConfig cfg;
+  cfg.work_zone.min = simulator->workZone().min;
+  cfg.work_zone.max = simulator->workZone().max;
+  PoseEstimator est(cfg);
+  std::vector<CameraInput> inputs;
+  for (size_t i = 0; i < simulator->numCameras(); ++i) {
+    CameraInput in;
+    in.frame = simulator->render(i, simulator->captureTime(i, 0), 0).sensor_frame;
+    for (auto& b : in.frame.boxes)
+      std::printf("%s box %s conf %.2f (%.0f %.0f)-(%.0f %.0f)\n", in.frame.camera.c_str(),
+                  labelName(b.label), b.confidence, b.x_min, b.y_min, b.x_max, b.y_max);
+    in.T_color_depth = simulator->T_link_depth(i);
+    in.T_world_depth = simulator->publishedT_world_link(i) * simulator->T_link_depth(i);
+    inputs.push_back(std::move(in));
+  }
+  const CycleResult r = est.process(inputs);
+  for (const auto& truth : simulator->groundTruth(0)) {
+    const int l = static_cast<int>(truth.label);
+    std::printf("== %s est %s / truth %s\n", labelName(truth.label), "", "");
+    std::cout << r.ends[l].T_world_end.translation().transpose() << " | "
+              << truth.T_world_end.translation().transpose() << "\n";
+    const Eigen::Isometry3d Tinv = truth.T_world_end.inverse();
+    std::map<int, std::vector<double>> bins;
+    for (const auto& p : r.fused) {
+      const Eigen::Vector3d q = Tinv * p.cast<double>();
+      const double rr = std::hypot(q.x(), q.y());
+      if (rr > 0.4) continue;
+      bins[static_cast<int>(std::floor(q.z() / 0.02))].push_back(rr);
+    }
+    for (auto& [b, v] : bins) {
+      std::sort(v.begin(), v.end());
+      std::printf("z %+.2f n %3zu r p10 %.3f med %.3f p90 %.3f\n", b * 0.02, v.size(),
+                  v[v.size() / 10], v[v.size() / 2], v[v.size() * 9 / 10]);
+    }
+  }
+}

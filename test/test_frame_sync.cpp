@@ -1,0 +1,129 @@
+// Cycle forming over unsynchronised cameras: complete cycles, dead / late / rejoining cameras.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "drill_pipe_pose/core/errors.hpp"
+#include "drill_pipe_pose/core/frame_sync.hpp"
+
+using namespace drill_pipe_pose;
+
+namespace {
+
+struct Event {
+  double arrival;
+  std::string cam;
+  int64_t stamp_ns;
+};
+
+// Frames of `cams` at 30 Hz with per-camera phase, jitter and transport delay, in arrival order.
+std::vector<Event> schedule(const std::vector<std::string>& cams, double t0, double t1,
+                            unsigned seed, const std::string& dead = "", double dead_from = 1e9,
+                            double dead_until = 1e9) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> phase(0, 1 / 30.0), jitter(-0.001, 0.001),
+      delay(0.003, 0.012);
+  std::vector<Event> ev;
+  for (const auto& c : cams) {
+    const double ph = phase(rng);
+    for (double t = t0 + ph; t < t1; t += 1 / 30.0) {
+      if (c == dead && t >= dead_from && t < dead_until) continue;
+      const double cap = t + jitter(rng);
+      ev.push_back({cap + delay(rng), c, static_cast<int64_t>(cap * 1e9)});
+    }
+  }
+  std::sort(ev.begin(), ev.end(),
+            [](const Event& a, const Event& b) { return a.arrival < b.arrival; });
+  return ev;
+}
+
+// Feeds events, polling after each and every 5 ms; returns the cycles.
+std::vector<FrameSynchronizer::Cycle> run(FrameSynchronizer& sync, const std::vector<Event>& ev) {
+  std::vector<FrameSynchronizer::Cycle> cycles;
+  uint64_t id = 0;
+  double next_tick = ev.empty() ? 0 : ev.front().arrival;
+  for (const auto& e : ev) {
+    while (next_tick < e.arrival) {
+      for (auto& c : sync.poll(next_tick)) cycles.push_back(c);
+      next_tick += 0.005;
+    }
+    sync.add(e.cam, e.stamp_ns, e.arrival, id++);
+    for (auto& c : sync.poll(e.arrival)) cycles.push_back(c);
+  }
+  return cycles;
+}
+
+const std::vector<std::string> kCams = {"cam1", "cam2", "cam3", "cam4", "cam5", "cam6"};
+
+}  // namespace
+
+TEST(FrameSync, SixUnsynchronisedCamerasGiveOneCompleteCyclePerPeriod) {
+  const unsigned seed = 5;
+  FrameSynchronizer sync(kCams, FrameSyncConfig());
+  const auto cycles = run(sync, schedule(kCams, 100.0, 110.0, seed));
+  // ~30 cycles per second, nearly all with all six cameras.
+  EXPECT_NEAR(static_cast<double>(cycles.size()), 300.0, 3.0) << "seed " << seed;
+  size_t full = 0;
+  for (const auto& c : cycles) full += c.frames.size() == 6;
+  EXPECT_GE(full, cycles.size() - 3) << "seed " << seed;
+  for (size_t i = 1; i < cycles.size(); ++i) EXPECT_GT(cycles[i].stamp_ns, cycles[i - 1].stamp_ns);
+  for (const auto& [cam, st] : sync.stats()) EXPECT_GE(st.used, st.received - 3) << cam;
+}
+
+TEST(FrameSync, DeadCameraNeverStallsAndRejoins) {
+  const unsigned seed = 9;
+  FrameSyncConfig cfg;
+  cfg.camera_timeout = 0.5;
+  FrameSynchronizer sync(kCams, cfg);
+  // cam3 is silent from t = 102 s to t = 105 s.
+  const auto cycles = run(sync, schedule(kCams, 100.0, 108.0, seed, "cam3", 102.0, 105.0));
+  EXPECT_NEAR(static_cast<double>(cycles.size()), 240.0, 4.0) << "seed " << seed;
+  size_t without = 0;
+  for (const auto& c : cycles) {
+    const double t = c.stamp_ns * 1e-9;
+    bool has3 = false;
+    for (const auto& f : c.frames) has3 |= f.first == "cam3";
+    if (t > 102.05 && t < 104.95) {
+      EXPECT_FALSE(has3);
+      EXPECT_EQ(c.frames.size(), 5u);
+      ++without;
+    }
+    if (t > 105.2) {
+      EXPECT_TRUE(has3) << "cam3 did not rejoin at t = " << t;
+    }
+  }
+  EXPECT_GT(without, 80u);
+}
+
+TEST(FrameSync, OneCameraWorks) {
+  FrameSynchronizer sync({"cam1"}, FrameSyncConfig());
+  const auto cycles = run(sync, schedule({"cam1"}, 0.0, 2.0, 1));
+  EXPECT_NEAR(static_cast<double>(cycles.size()), 60.0, 1.0);
+  for (const auto& c : cycles) EXPECT_TRUE(c.complete);
+}
+
+TEST(FrameSync, LateFramesAreCountedNotUsed) {
+  FrameSyncConfig cfg;
+  cfg.max_wait = 0.02;
+  FrameSynchronizer sync({"a", "b"}, cfg);
+  sync.add("a", 1000000000, 1.0, 1);
+  EXPECT_TRUE(sync.poll(1.001).empty());  // waits for b
+  auto cycles = sync.poll(1.03);          // max_wait passed: closes with a alone
+  ASSERT_EQ(cycles.size(), 1u);
+  EXPECT_FALSE(cycles[0].complete);
+  EXPECT_EQ(cycles[0].frames.size(), 1u);
+  EXPECT_FALSE(sync.add("b", 999000000, 1.04, 2));  // older than the closed cycle
+  EXPECT_EQ(sync.stats().at("b").dropped_stale, 1u);
+  EXPECT_EQ(sync.takeDropped(), std::vector<uint64_t>{2});
+  // After a clock jump back (looped bag), reset accepts old stamps again.
+  sync.reset();
+  EXPECT_TRUE(sync.add("a", 500000000, 2.0, 3));
+}
+
+TEST(FrameSync, BadConfigurationIsNamed) {
+  EXPECT_THROW(FrameSynchronizer({}, FrameSyncConfig()), InputError);
+  EXPECT_THROW(FrameSynchronizer({"a", "a"}, FrameSyncConfig()), InputError);
+  FrameSyncConfig cfg;
+  cfg.window = 0;
+  EXPECT_THROW(FrameSynchronizer({"a"}, cfg), InputError);
+}
