@@ -8,6 +8,7 @@
 #include <drill_pipe_pose/SensorFrame.h>
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <ros/ros.h>
+
 #include <sensor_msgs/PointCloud2.h>
 #include <sensor_msgs/point_cloud2_iterator.h>
 #include <tf2_eigen/tf2_eigen.h>
@@ -15,6 +16,7 @@
 #include <tf2_ros/transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
 #include <visualization_msgs/MarkerArray.h>
+#include <cstdio>
 
 #include <map>
 #include <memory>
@@ -401,8 +403,10 @@ int main(int argc, char** argv) {
   try {
     drill_pipe_pose::PoseEstimatorNode node(ros::NodeHandle(), ros::NodeHandle("~"));
     ros::spin();
-  } catch (const drill_pipe_pose::InputError& e) {
+  } catch (const std::exception& e) {
+    // Also on stderr: ROS_FATAL may not reach the console while the node shuts down.
     ROS_FATAL("pose_estimator: %s", e.what());
+    std::fprintf(stderr, "pose_estimator: %s\n", e.what());
     return 1;
   }
   return 0;

@@ -11,8 +11,10 @@
 #include <drill_pipe_pose/SensorFrame.h>
 #include <ros/package.h>
 #include <ros/ros.h>
+
 #include <rosgraph_msgs/Clock.h>
 #include <tf2_ros/static_transform_broadcaster.h>
+#include <cstdio>
 
 #include "drill_pipe_pose/core/depth_crop.hpp"
 #include "drill_pipe_pose/ros/conversions.hpp"
@@ -148,8 +150,10 @@ int main(int argc, char** argv) {
   try {
     drill_pipe_pose::RigSimulatorNode node(ros::NodeHandle(), ros::NodeHandle("~"));
     ros::spin();
-  } catch (const drill_pipe_pose::InputError& e) {
+  } catch (const std::exception& e) {
+    // Also on stderr: ROS_FATAL may not reach the console while the node shuts down.
     ROS_FATAL("rig_simulator: %s", e.what());
+    std::fprintf(stderr, "rig_simulator: %s\n", e.what());
     return 1;
   }
   return 0;

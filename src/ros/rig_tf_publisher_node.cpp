@@ -3,7 +3,9 @@
 // sensor nodes' kinect2_bridge publishes <cam>_link -> optical frames itself.
 //   ~rig (path, required)
 #include <ros/ros.h>
+
 #include <tf2_ros/static_transform_broadcaster.h>
+#include <cstdio>
 
 #include "drill_pipe_pose/core/conventions.hpp"
 #include "drill_pipe_pose/core/rig_calibration.hpp"
@@ -30,8 +32,10 @@ int main(int argc, char** argv) {
     ROS_INFO("rig_tf_publisher: %zu cameras from %s as static TF %s -> <cam>_link",
              rig.cameras.size(), path.c_str(), rig.world_frame.c_str());
     ros::spin();
-  } catch (const drill_pipe_pose::InputError& e) {
+  } catch (const std::exception& e) {
+    // Also on stderr: ROS_FATAL may not reach the console while the node shuts down.
     ROS_FATAL("rig_tf_publisher: %s", e.what());
+    std::fprintf(stderr, "rig_tf_publisher: %s\n", e.what());
     return 1;
   }
   return 0;
