@@ -406,6 +406,36 @@ TEST(AxisFit, KnownAxisUnderNoiseAndOutliers) {
   }
 }
 
+TEST(SupportPlane, RemovesAFloorRingButNotTheJointsEndFace) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> uni(-1, 1);
+  std::normal_distribution<double> gauss(0, 0.006);
+  const double R = 0.08415;
+  // A vertical joint standing 0.25 m out of a floor at z = 0, seen from all sides.
+  std::vector<Eigen::Vector3f> joint, floor_ring;
+  for (int i = 0; i < 600; ++i) {
+    const double phi = M_PI * uni(rng), z = 0.125 * (uni(rng) + 1);
+    joint.emplace_back((R + gauss(rng)) * std::cos(phi), (R + gauss(rng)) * std::sin(phi), z);
+  }
+  for (int i = 0; i < 60; ++i) {  // its end face annulus: narrower than plane_min_extent
+    const double phi = M_PI * uni(rng), r = 0.075 + 0.009 * uni(rng);
+    joint.emplace_back(r * std::cos(phi), r * std::sin(phi), 0.25 + gauss(rng));
+  }
+  for (int i = 0; i < 300; ++i) {
+    const double phi = M_PI * uni(rng), r = R + 0.02 + 0.1 * (uni(rng) + 1);
+    floor_ring.emplace_back(r * std::cos(phi), r * std::sin(phi), gauss(rng));
+  }
+  const EstimatorConfig::AxisFit cfg;
+  EXPECT_EQ(removeSupportPlane(joint, cfg).size(), joint.size());
+  std::vector<Eigen::Vector3f> all = joint;
+  all.insert(all.end(), floor_ring.begin(), floor_ring.end());
+  const std::vector<size_t> keep = removeSupportPlane(all, cfg);
+  size_t floor_kept = 0, joint_kept = 0;
+  for (size_t k : keep) (k < joint.size() ? joint_kept : floor_kept) += 1;
+  EXPECT_LT(floor_kept, 15u);
+  EXPECT_GT(joint_kept, joint.size() * 9 / 10);
+}
+
 namespace {
 
 struct Trial {

@@ -67,7 +67,7 @@ class EstimatorReplay(unittest.TestCase):
             rec.send_signal(signal.SIGINT)
             rec.wait(timeout=20)
 
-    @unittest.skip("box_end mean error is 37 mm (seed 3) until the axis-direction fix lands")
+    @unittest.skip("issue 4 open: box_end axis error ~3 deg and ~10 mm axial bias exceed these bounds")
     def test_1_accuracy_through_the_node(self):
         rec = os.path.join(self.tmp, "estimates.bag")
         self.play(self.bag, record=rec)
@@ -95,7 +95,7 @@ class EstimatorReplay(unittest.TestCase):
                     continue
                 dst.write(topic, msg, t, raw=True, connection_header=None)
         del self.ends[:]
-        self.play(cut)
+        self.play(cut, extra=("-r", "0.5"))  # half speed: the node keeps up on a loaded CI machine
         late = [m for m in self.ends if m.header.stamp.to_sec() > 1.0 + 2.0]
         self.assertGreater(len(late), 15, "poses stopped when cam3 stopped")
         self.assertTrue(all(e.valid for m in late for e in m.ends if e.label == "pin_end")

@@ -33,6 +33,7 @@ EstimatorConfig loadEstimatorConfig(const ros::NodeHandle& pnh) {
   readNumber(pnh, "cutout/min_range", c.cutout.min_range, 0.0);
   readNumber(pnh, "cutout/max_range", c.cutout.max_range, 0.0);
   readNumber(pnh, "cutout/min_confidence", c.cutout.min_confidence, 0.0);
+  readNumber(pnh, "cutout/edge_jump", c.cutout.edge_jump, 0.0);
 
   readNumber(pnh, "carving/min_cameras", c.carving.min_cameras, 1.0);
   readNumber(pnh, "carving/vote_fraction", c.carving.vote_fraction, 0.0);
@@ -45,6 +46,11 @@ EstimatorConfig loadEstimatorConfig(const ros::NodeHandle& pnh) {
   readNumber(pnh, "axis_fit/inlier_threshold", c.axis_fit.inlier_threshold, 0.0);
   readNumber(pnh, "axis_fit/iterations", c.axis_fit.iterations, 1.0);
   readNumber(pnh, "axis_fit/seed", c.axis_fit.seed, 0.0);
+  readNumber(pnh, "axis_fit/direction_samples", c.axis_fit.direction_samples, 0.0);
+  readNumber(pnh, "axis_fit/plane_iterations", c.axis_fit.plane_iterations, 0.0);
+  readNumber(pnh, "axis_fit/plane_threshold", c.axis_fit.plane_threshold, 0.0);
+  readNumber(pnh, "axis_fit/plane_min_fraction", c.axis_fit.plane_min_fraction, 0.0);
+  readNumber(pnh, "axis_fit/plane_min_extent", c.axis_fit.plane_min_extent, 0.0);
 
   readNumber(pnh, "profile_fit/search_step", c.profile_fit.search_step, 0.0);
   readNumber(pnh, "profile_fit/truncation", c.profile_fit.truncation, 0.0);
@@ -55,6 +61,22 @@ EstimatorConfig loadEstimatorConfig(const ros::NodeHandle& pnh) {
   readNumber(pnh, "profile_fit/search_points", c.profile_fit.search_points, 1.0);
   readNumber(pnh, "profile_fit/max_rms", c.profile_fit.max_rms, 0.0);
   readNumber(pnh, "profile_fit/min_inlier_fraction", c.profile_fit.min_inlier_fraction, 0.0);
+
+  readNumber(pnh, "profile_fit/max_points", c.profile_fit.max_points, 1.0);
+  readParam(pnh, "profile_fit/long_tong_search", c.profile_fit.long_tong_search);
+
+  readParam(pnh, "free_space/enabled", c.free_space.enabled);
+  readParam(pnh, "free_space/decide_hypotheses", c.free_space.decide_hypotheses);
+  readParam(pnh, "free_space/axial_scan", c.free_space.axial_scan);
+  readNumber(pnh, "free_space/pixel_weight", c.free_space.pixel_weight, 0.0);
+  readNumber(pnh, "free_space/margin", c.free_space.margin, 0.0);
+  readNumber(pnh, "free_space/sample_spacing", c.free_space.sample_spacing, 1e-4);
+  readNumber(pnh, "free_space/tube_length", c.free_space.tube_length, 0.0);
+  readNumber(pnh, "free_space/min_cos_incidence", c.free_space.min_cos_incidence, 0.0);
+  readNumber(pnh, "free_space/axial_range", c.free_space.axial_range, 0.0);
+  readNumber(pnh, "free_space/decision_step", c.free_space.decision_step, 1e-4);
+  readNumber(pnh, "free_space/axial_step", c.free_space.axial_step, 1e-4);
+  readNumber(pnh, "free_space/min_direction_margin", c.free_space.min_direction_margin, 0.0);
 
   readNumber(pnh, "noise/scale", c.noise.scale, 0.0);
   readNumber(pnh, "noise/min_sigma", c.noise.min_sigma, 0.0);

@@ -70,6 +70,24 @@ void validateConfig(const EstimatorConfig& c) {
          " must be >= 20");
   finite_positive(c.profile_fit.max_rms, "profile_fit.max_rms");
   non_negative(c.profile_fit.min_inlier_fraction, "profile_fit.min_inlier_fraction");
+  non_negative(c.cutout.edge_jump, "cutout.edge_jump");
+  if (c.axis_fit.plane_iterations < 0)
+    fail("estimator config: axis_fit.plane_iterations = ", c.axis_fit.plane_iterations,
+         " must be >= 0");
+  finite_positive(c.axis_fit.plane_threshold, "axis_fit.plane_threshold");
+  non_negative(c.axis_fit.plane_min_fraction, "axis_fit.plane_min_fraction");
+  non_negative(c.axis_fit.plane_min_extent, "axis_fit.plane_min_extent");
+  non_negative(c.free_space.pixel_weight, "free_space.pixel_weight");
+  finite_positive(c.free_space.margin, "free_space.margin");
+  finite_positive(c.free_space.sample_spacing, "free_space.sample_spacing");
+  non_negative(c.free_space.tube_length, "free_space.tube_length");
+  if (!(c.free_space.min_cos_incidence >= 0.0 && c.free_space.min_cos_incidence < 1.0))
+    fail("estimator config: free_space.min_cos_incidence = ", c.free_space.min_cos_incidence,
+         " must be in [0, 1)");
+  non_negative(c.free_space.axial_range, "free_space.axial_range");
+  finite_positive(c.free_space.decision_step, "free_space.decision_step");
+  finite_positive(c.free_space.axial_step, "free_space.axial_step");
+  non_negative(c.free_space.min_direction_margin, "free_space.min_direction_margin");
   finite_positive(c.noise.scale, "noise.scale");
   finite_positive(c.noise.min_sigma, "noise.min_sigma");
   finite_positive(c.covariance.inflation, "covariance.inflation");
@@ -179,6 +197,8 @@ void cutOutCamera(const CycleCamera& cam, uint16_t camera_index, const Estimator
   const float cx = cam.color.cx() - cam.color.offsetX(), cy = cam.color.cy() - cam.color.offsetY();
   const double m = config.cutout.box_margin_px;
   const float zmin = config.cutout.min_range, zmax = config.cutout.max_range;
+  const float jump = static_cast<float>(config.cutout.edge_jump);
+  const int W = static_cast<int>(cam.image.width), H = static_cast<int>(cam.image.height);
   for (size_t k = 0; k < cam.boxes.size(); ++k) {
     const DetectionBox& b = cam.boxes[k];
     std::array<int, 4> r;
@@ -186,8 +206,19 @@ void cutOutCamera(const CycleCamera& cam, uint16_t camera_index, const Estimator
     const int label = static_cast<int>(b.label);
     std::vector<CloudPoint>& dst = (*out)[label];
     projector.forEachPoint(
-        cam.image, r[0], r[1], r[2], r[3], [&](int, int, const Eigen::Vector3f& p) {
+        cam.image, r[0], r[1], r[2], r[3], [&](int u, int v, const Eigen::Vector3f& p) {
           if (p.z() < zmin || p.z() > zmax) return;
+          if (jump > 0.0f) {
+            // Depth edge: mixed (flying) pixels and grazing silhouette pixels, the least
+            // reliable depths, biased toward the background.
+            const float lim = std::max(jump, 4.0f * depthSigma(config.noise, p.z()));
+            const int nu[4] = {u - 1, u + 1, u, u}, nv[4] = {v, v, v - 1, v + 1};
+            for (int q = 0; q < 4; ++q) {
+              if (nu[q] < 0 || nv[q] < 0 || nu[q] >= W || nv[q] >= H) continue;
+              const float zn = cam.image.depthAt(nu[q], nv[q]);
+              if (zn == zn && std::abs(zn - p.z()) > lim) return;
+            }
+          }
           const Eigen::Vector3f pc = R_cd * p + t_cd;
           if (!(pc.z() > 0.0f)) return;
           const Eigen::Vector2d uv(fx * pc.x() / pc.z() + cx, fy * pc.y() / pc.z() + cy);

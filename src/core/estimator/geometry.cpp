@@ -114,6 +114,59 @@ double refineCylinder(const std::vector<Eigen::Vector3d>& pts, double radius, do
 
 }  // namespace
 
+std::vector<size_t> removeSupportPlane(const std::vector<Eigen::Vector3f>& points,
+                                       const EstimatorConfig::AxisFit& config) {
+  std::vector<size_t> keep(points.size());
+  for (size_t i = 0; i < points.size(); ++i) keep[i] = i;
+  if (config.plane_iterations <= 0 || points.size() < 30) return keep;
+  std::mt19937 rng(config.seed + 7);
+  std::uniform_int_distribution<size_t> pick(0, points.size() - 1);
+  const float thr = static_cast<float>(config.plane_threshold);
+  size_t best_n = 0;
+  Eigen::Vector3f best_nrm = Eigen::Vector3f::UnitZ();
+  float best_d = 0;
+  for (int it = 0; it < config.plane_iterations; ++it) {
+    const Eigen::Vector3f& a = points[pick(rng)];
+    const Eigen::Vector3f& b = points[pick(rng)];
+    const Eigen::Vector3f& c = points[pick(rng)];
+    Eigen::Vector3f nrm = (b - a).cross(c - a);
+    const float len = nrm.norm();
+    if (!(len > 1e-6f)) continue;
+    nrm /= len;
+    const float d = -nrm.dot(a);
+    size_t n = 0;
+    for (const auto& p : points) n += std::abs(nrm.dot(p) + d) < thr;
+    if (n > best_n) best_n = n, best_nrm = nrm, best_d = d;
+  }
+  if (best_n < std::max<size_t>(20, static_cast<size_t>(config.plane_min_fraction *
+                                                        static_cast<double>(points.size()))))
+    return keep;
+  std::vector<size_t> in;
+  Eigen::Vector3f centroid = Eigen::Vector3f::Zero();
+  for (size_t i = 0; i < points.size(); ++i)
+    if (std::abs(best_nrm.dot(points[i]) + best_d) < thr) {
+      in.push_back(i);
+      centroid += points[i];
+    }
+  centroid /= static_cast<float>(in.size());
+  // Spread of the inliers in the plane along its narrower direction: a floor or catwalk spreads
+  // both ways; the band of a cylinder's side near a tangent plane (or an end face) is narrow.
+  Eigen::Matrix3f C = Eigen::Matrix3f::Zero();
+  for (size_t i : in) {
+    const Eigen::Vector3f q = points[i] - centroid;
+    const Eigen::Vector3f qp = q - best_nrm.dot(q) * best_nrm;
+    C += qp * qp.transpose();
+  }
+  C /= static_cast<float>(in.size());
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3f> es(C);
+  // Eigenvalues ascending: [0] ~ 0 (the normal), [1] the narrower in-plane direction.
+  if (std::sqrt(std::max(0.0f, es.eigenvalues()[1])) < config.plane_min_extent) return keep;
+  keep.clear();
+  for (size_t i = 0; i < points.size(); ++i)
+    if (!(std::abs(best_nrm.dot(points[i]) + best_d) < thr)) keep.push_back(i);
+  return keep;
+}
+
 AxisFitResult fitCylinderAxis(const std::vector<Eigen::Vector3f>& points, double radius,
                               const EstimatorConfig::AxisFit& config) {
   AxisFitResult result;
@@ -569,6 +622,69 @@ double freeSpaceViolation(const std::vector<OrientedPoint>& samples,
   }
   if (judged) *judged = viol + support;
   return viol + support > 0 ? static_cast<double>(viol) / (viol + support) : 0.0;
+}
+
+size_t seenThroughPixels(const std::vector<OrientedPoint>& samples,
+                         const Eigen::Isometry3d& T_world_end,
+                         const std::vector<CycleCamera>& cameras, double margin,
+                         const EstimatorConfig::Noise& noise, float min_cos_incidence,
+                         size_t* predicted) {
+  size_t viol_total = 0, pred_total = 0;
+  std::vector<uint32_t> viol, pred;
+  for (const CycleCamera& cam : cameras) {
+    viol.clear();
+    pred.clear();
+    const Eigen::Isometry3d T_depth_end = cam.T_world_depth.inverse() * T_world_end;
+    const Eigen::Matrix3f R = T_depth_end.linear().cast<float>();
+    const Eigen::Vector3f t = T_depth_end.translation().cast<float>();
+    const float fx = cam.depth.fx(), fy = cam.depth.fy();
+    const float cx = cam.depth.cx() - cam.depth.offsetX(),
+                cy = cam.depth.cy() - cam.depth.offsetY();
+    const int W = cam.image.width, H = cam.image.height;
+    for (const OrientedPoint& s : samples) {
+      const Eigen::Vector3f p = R * s.p + t;
+      if (!(p.z() > 0.1f)) continue;
+      const float range = p.norm();
+      const float cos_inc = -(R * s.n).dot(p) / range;
+      if (cos_inc <= 0.0f) continue;  // faces away from the camera
+      const int u = static_cast<int>(std::floor(fx * p.x() / p.z() + cx + 0.5f));
+      const int v = static_cast<int>(std::floor(fy * p.y() / p.z() + cy + 0.5f));
+      if (u < 0 || v < 0 || u >= W || v >= H) continue;
+      const uint32_t key = static_cast<uint32_t>(v) * W + u;
+      pred.push_back(key);
+      // Grazing samples are not judged: their depth noise is huge and the silhouette's mixed
+      // pixels show the background.
+      if (cos_inc < min_cos_incidence) continue;
+      // Margin: at least `margin`, and 3 sigma of the depth noise at this range and incidence
+      // (Fankhauser et al. 2015: + 0.1 z^1.5 theta^2 / (pi/2 - theta)^2 [mm]).
+      const float theta = std::acos(std::min(1.0f, cos_inc));
+      const float g = theta / (static_cast<float>(M_PI_2) - theta);
+      const float sig = depthSigma(noise, p.z()) +
+                        static_cast<float>(noise.scale) * 1e-4f * p.z() * std::sqrt(p.z()) * g * g;
+      const float m = std::max(static_cast<float>(margin), 3.0f * sig);
+      // Seen through only when the whole valid 3x3 neighbourhood lies behind the sample (a
+      // one-pixel dead zone at the silhouette, where lateral noise and mixed pixels show the
+      // background even for the right pose).
+      int valid = 0, behind = 0;
+      for (int dv = -1; dv <= 1; ++dv)
+        for (int du = -1; du <= 1; ++du) {
+          const int uu = u + du, vv = v + dv;
+          if (uu < 0 || vv < 0 || uu >= W || vv >= H) continue;
+          const float zm = cam.image.depthAt(uu, vv);
+          if (!(zm == zm)) continue;
+          ++valid;
+          if (zm > p.z() + m) ++behind;
+        }
+      if (valid > 0 && behind == valid) viol.push_back(key);
+    }
+    // Distinct pixels: the samples are denser than the pixels at short range.
+    std::sort(viol.begin(), viol.end());
+    viol_total += std::unique(viol.begin(), viol.end()) - viol.begin();
+    std::sort(pred.begin(), pred.end());
+    pred_total += std::unique(pred.begin(), pred.end()) - pred.begin();
+  }
+  if (predicted) *predicted = pred_total;
+  return viol_total;
 }
 
 }  // namespace drill_pipe_pose

@@ -29,6 +29,7 @@ struct Candidate {
   std::string reason;
   std::vector<Eigen::Vector3f> pts;
   std::vector<uint16_t> cams;
+  double direction_margin = 0.0;  ///< score of the flipped axis direction minus the winner's
 };
 
 }  // namespace
@@ -36,9 +37,9 @@ struct Candidate {
 struct PoseEstimator::Impl {
   std::array<ProfileModel, kNumEnds> models;
   std::array<ProfileModel, kNumEnds> search_models;  ///< tong 0.3 m longer (wear-proof search)
-  /// Camera-facing surface samples (end frame) for the free-space check: the whole trusted
-  /// model, and the part near the shoulder / end face used in the axial scan.
-  std::array<std::vector<OrientedPoint>, kNumEnds> fs_samples, fs_end_samples;
+  /// Camera-facing surface samples (end frame) for the free-space check: the tool joint with
+  /// free_space.tube_length of tube.
+  std::array<std::vector<OrientedPoint>, kNumEnds> fs_samples;
   std::unique_ptr<ThesisBaseline> baseline;
 };
 
@@ -54,17 +55,16 @@ PoseEstimator::PoseEstimator(const EstimatorConfig& config)
   impl_->search_models[1] = ProfileModel(EndLabel::kPinEnd, long_tong);
   for (int l = 0; l < kNumEnds; ++l) {
     const ProfileModel& m = impl_->models[l];
-    // The joint with its taper and 0.1 m of tube: a flipped or mislabelled model predicts
+    // The joint with its taper and tube_length of tube: a flipped or mislabelled model predicts
     // surface there that the cameras see through (a worn taper is off by less than a pixel).
-    const double z_lo = m.zMin() - 0.1;
+    const double z_lo = m.zMin() - config_.free_space.tube_length;
     ToolJointDimensions d = config_.dims;
-    d.tube_length = 0.1;
+    d.tube_length = config_.free_space.tube_length;
     for (const OrientedPoint& s :
          sampleProfileSurface(toolJointProfile(static_cast<EndLabel>(l), d),
                               config_.free_space.sample_spacing, 1, true)) {
       if (s.p.z() < z_lo + 1e-3 || s.p.z() > m.zMax() + 1e-6) continue;
       impl_->fs_samples[l].push_back(s);
-      if (s.p.z() > -0.08) impl_->fs_end_samples[l].push_back(s);
     }
   }
   if (config_.method == EstimatorMethod::kThesisBaseline)
@@ -178,8 +178,17 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
       sig.push_back(carved[l][i].sigma);
       cd.cams.push_back(carved[l][i].camera);
     }
+    // A floor or catwalk around the joint is not part of it: left out of the axis fit (the
+    // profile registration and the decision judge every point, with the same cost for all).
+    std::vector<Eigen::Vector3f> axis_pts;
+    for (size_t k : removeSupportPlane(cd.pts, config_.axis_fit)) axis_pts.push_back(cd.pts[k]);
+    if (axis_pts.size() < config_.axis_fit.min_points) {
+      seg_ms += msSince(t0);
+      cd.reason = std::to_string(axis_pts.size()) + " points left after removing the support plane";
+      continue;
+    }
     const AxisFitResult axis =
-        fitCylinderAxis(cd.pts, config_.dims.tool_joint_od / 2, config_.axis_fit);
+        fitCylinderAxis(axis_pts, config_.dims.tool_joint_od / 2, config_.axis_fit);
     seg_ms += msSince(t0);
     if (!axis.ok) {
       cd.reason =
@@ -189,70 +198,100 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
     t0 = Clock::now();
     const auto& fsc = config_.free_space;
     const double T2 = config_.profile_fit.truncation * config_.profile_fit.truncation;
-    auto combined = [&](const ProfileFitResult& f, const std::vector<OrientedPoint>& samples) {
-      if (!f.ok) return std::numeric_limits<double>::infinity();
-      double c = f.cost;
-      if (fsc.enabled && fsc.decide_hypotheses)
-        c += fsc.weight * T2 *
-             freeSpaceViolation(samples, canonicalPose(f.origin, f.z), cams, fsc.margin);
+    // Symmetric score of a pose, in "unexplained measurement" units: every point costs its
+    // truncated squared distance / truncation^2 (an unexplained point costs 1), every depth pixel
+    // on which the model claims a surface that the camera saw through costs pixel_weight. The
+    // same points and cameras judge every hypothesis (2 models x 2 axis directions), so nothing
+    // is gained by hiding a model below a floor or outside the views.
+    const bool use_fs = fsc.enabled && fsc.decide_hypotheses;
+    auto poseScore = [&](int m, const std::vector<Eigen::Vector3f>& P, double n_scale,
+                         const Eigen::Vector3d& o, const Eigen::Vector3d& z) {
+      double c =
+          profileCost(P, impl_->models[m], o, z, config_.profile_fit.truncation) / T2 * n_scale;
+      if (use_fs)
+        c += fsc.pixel_weight * static_cast<double>(seenThroughPixels(
+                                    impl_->fs_samples[m], canonicalPose(o, z), cams, fsc.margin,
+                                    config_.noise, fsc.min_cos_incidence));
       return c;
     };
-    // Both models x both axis directions; the profile cost plus the free-space penalty decides.
+    // Scan of the position along the axis (origin + delta z) minimising poseScore: a coarse pass
+    // over +-range at `step`, then +-step at step / 2 (or finer when `fine` > 0).
+    auto axialScan = [&](int m, const std::vector<Eigen::Vector3f>& P, double n_scale,
+                         ProfileFitResult* f, double range, double step, double fine) {
+      double best_d = 0, best = poseScore(m, P, n_scale, f->origin, f->z);
+      for (double d = -range; d <= range + 1e-9; d += step) {
+        if (std::abs(d) < 1e-9) continue;
+        const double c = poseScore(m, P, n_scale, f->origin + d * f->z, f->z);
+        if (c < best) best = c, best_d = d;
+      }
+      const double fs = fine > 0 ? fine : step / 2;
+      const double d0 = best_d;
+      for (double d = d0 - step + fs; d < d0 + step - 1e-9; d += fs) {
+        if (std::abs(d - d0) < 1e-9) continue;
+        const double c = poseScore(m, P, n_scale, f->origin + d * f->z, f->z);
+        if (c < best) best = c, best_d = d;
+      }
+      f->origin += best_d * f->z;
+      return best;
+    };
+    // Points of the decision scans (deterministic subsample), scaled to the full count.
+    std::vector<Eigen::Vector3f> scan_pts;
+    {
+      const size_t st = std::max<size_t>(1, cd.pts.size() / config_.profile_fit.search_points);
+      for (size_t i = 0; i < cd.pts.size(); i += st) scan_pts.push_back(cd.pts[i]);
+    }
+    const double n_scale = static_cast<double>(cd.pts.size());
+    // Both models x both axis directions, each at its best position along the axis.
     std::array<ProfileFitResult, kNumEnds> fits;
     std::array<double, kNumEnds> cost{};
+    std::array<double, kNumEnds> flip_cost{};
     for (int m = 0; m < kNumEnds; ++m) {
-      const auto hyp = fitProfileHypotheses(
+      auto hyp = fitProfileHypotheses(
           cd.pts, sig, axis.axis, impl_->models[m], config_.profile_fit,
           config_.profile_fit.long_tong_search ? &impl_->search_models[m] : nullptr);
-      const double c0 = combined(hyp[0], impl_->fs_samples[m]);
-      const double c1 = combined(hyp[1], impl_->fs_samples[m]);
-      fits[m] = c0 <= c1 ? hyp[0] : hyp[1];
-      cost[m] = std::min(c0, c1);
+      std::array<double, 2> c{
+          {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()}};
+      for (int k = 0; k < 2; ++k)
+        if (hyp[k].ok)
+          c[k] = fsc.enabled && fsc.axial_scan
+                     ? axialScan(m, scan_pts, n_scale, &hyp[k], fsc.axial_range, fsc.decision_step,
+                                 0.0)
+                     : poseScore(m, scan_pts, n_scale, hyp[k].origin, hyp[k].z);
+      const int k = c[0] <= c[1] ? 0 : 1;
+      fits[m] = hyp[k];
+      cost[m] = c[k];
+      flip_cost[m] = c[1 - k];
     }
     const int other = 1 - l;
     int win = l;
     if (cost[other] < (1.0 - config_.profile_fit.label_margin) * cost[l]) win = other;
     cd.fit = fits[win];
+    cd.direction_margin = flip_cost[win] - cost[win];
     if (cd.fit.ok && fsc.enabled && fsc.axial_scan) {
-      // Position along the axis: scan the profile cost of the trusted points plus the
-      // free-space penalty of the shoulder / end-face region, then refine with it locked.
+      // Fine position along the axis with the points of the trusted (unworn) part, then the
+      // 5-DoF refinement with it locked.
       const ProfileModel& model = impl_->models[win];
       const double z_trust = model.trustedMinZ(config_.profile_fit.wear_margin);
       std::vector<Eigen::Vector3f> trusted;
       for (const auto& p : cd.pts)
         if ((p.cast<double>() - cd.fit.origin).dot(cd.fit.z) > z_trust + 0.03) trusted.push_back(p);
-      auto scanCost = [&](double delta) {
-        const Eigen::Vector3d o = cd.fit.origin + delta * cd.fit.z;
-        return profileCost(trusted, model, o, cd.fit.z, config_.profile_fit.truncation) +
-               fsc.weight * T2 *
-                   freeSpaceViolation(impl_->fs_end_samples[win], canonicalPose(o, cd.fit.z), cams,
-                                      fsc.margin);
-      };
-      double best_delta = 0, best = scanCost(0.0);
-      const double coarse = 4 * fsc.axial_step;
-      for (double d = -fsc.axial_range; d <= fsc.axial_range + 1e-9; d += coarse) {
-        const double c = scanCost(d);
-        if (c < best) {
-          best = c;
-          best_delta = d;
-        }
-      }
-      const double d0 = best_delta;
-      for (double d = d0 - coarse; d <= d0 + coarse + 1e-9; d += fsc.axial_step) {
-        const double c = scanCost(d);
-        if (c < best) {
-          best = c;
-          best_delta = d;
-        }
-      }
-      ProfileFitResult f =
-          refineProfile(cd.pts, sig, cd.fit.origin + best_delta * cd.fit.z, cd.fit.z, model,
-                        config_.profile_fit, config_.profile_fit.iterations, true);
+      ProfileFitResult f0 = cd.fit;
+      axialScan(win, trusted, static_cast<double>(trusted.size()), &f0, fsc.decision_step,
+                fsc.axial_step, fsc.axial_step / 2);
+      ProfileFitResult f = refineProfile(cd.pts, sig, f0.origin, f0.z, model, config_.profile_fit,
+                                         config_.profile_fit.iterations, true);
       if (f.ok) cd.fit = f;
     }
     reg_ms += msSince(t0);
     if (!cd.fit.ok) {
       cd.reason = "model registration failed";
+      continue;
+    }
+    if (use_fs && cd.direction_margin < fsc.min_direction_margin) {
+      std::ostringstream s;
+      s << "axis direction ambiguous: the flipped pose scores only " << cd.direction_margin
+        << " worse (< free_space.min_direction_margin = " << fsc.min_direction_margin << ")";
+      cd.reason = s.str();
       continue;
     }
     const double inlier_fraction = static_cast<double>(cd.fit.inliers) / cd.pts.size();

@@ -39,6 +39,9 @@ struct EstimatorConfig {
     double min_range = 0.3;       ///< [m] depth (optical z) below this is ignored
     double max_range = 12.0;      ///< [m] depth above this is ignored
     float min_confidence = 0.0f;  ///< boxes below this detector confidence are ignored
+    /// [m] a pixel whose depth differs from a 4-neighbour's by more than max(edge_jump,
+    /// 4 sigma) is dropped (mixed / flying pixels, grazing silhouettes); 0 = off.
+    double edge_jump = 0.0;
   } cutout;
 
   /// Visual-hull carving across the cameras' boxes of the same label.
@@ -64,6 +67,16 @@ struct EstimatorConfig {
     double inlier_threshold = 0.02;  ///< [m] |distance to axis - radius| of a cylinder inlier
     int iterations = 8;              ///< Gauss-Newton iterations per hypothesis
     uint32_t seed = 1;               ///< random sampling seed (deterministic)
+    /// Support-plane removal before the fit (a floor or catwalk around the joint): the plane
+    /// with the most points within plane_threshold [m] (RANSAC) is left out of the axis fit when
+    /// it holds at least plane_min_fraction of the points and its inliers spread by a standard
+    /// deviation of at least plane_min_extent [m] along the plane's narrower direction (the band
+    /// of the joint's side near a tangent plane spreads about 0.4 radius, an end face 0.7
+    /// radius or less). plane_iterations = 0: off.
+    int plane_iterations = 60;
+    double plane_threshold = 0.02;
+    double plane_min_fraction = 0.1;
+    double plane_min_extent = 0.06;
   } axis_fit;
 
   /// Registration against the model profile (body of revolution, roll-free: 5 DoF).
@@ -85,18 +98,30 @@ struct EstimatorConfig {
     double min_inlier_fraction = 0.4;  ///< a fit with fewer inliers (of the points) is invalid
   } profile_fit;
 
-  /// Free-space check against the depth images: a model surface where a camera saw through it is
-  /// penalised. Decides the axis direction, the label and the position along the axis together
-  /// with the profile cost (cost += weight * truncation^2 * violating fraction).
+  /// Free-space check against the depth images, scored symmetrically for every hypothesis (both
+  /// models x both axis directions, each at its best position along the axis): score = sum over
+  /// the points of min(d^2, truncation^2) / truncation^2 + pixel_weight * (depth pixels on which
+  /// the model claims a surface that the camera saw through). Decides the axis direction, the
+  /// label and the position along the axis.
   struct FreeSpace {
     bool enabled = true;
-    bool decide_hypotheses = false;  ///< also in the axis-direction / label decision
-    bool axial_scan = true;          ///< scan the position along the axis with it
-    double weight = 3.0;
-    double margin = 0.03;  ///< [m] depth beyond the model surface that counts as seen-through
+    bool decide_hypotheses = true;  ///< the seen-through pixels enter the decision
+    bool axial_scan = true;         ///< scan the position along the axis with the score
+    /// A seen-through depth pixel costs this many unexplained points.
+    double pixel_weight = 1.0;
+    /// [m] depth beyond the model surface that counts as seen-through (at least; 3 sigma of the
+    /// depth noise at the sample's range and incidence when larger).
+    double margin = 0.03;
     double sample_spacing = 0.012;  ///< [m] model surface samples
-    double axial_range = 0.04;      ///< [m] +- scan of the position along the axis
-    double axial_step = 0.002;      ///< [m]
+    double tube_length = 0.22;      ///< [m] tube below the taper that the checked model includes
+    /// Model samples seen at a smaller cosine of incidence are not judged (grazing).
+    double min_cos_incidence = 0.3;
+    double axial_range = 0.04;    ///< [m] +- scan of the position along the axis
+    double decision_step = 0.01;  ///< [m] step of every hypothesis's scan (then step / 2)
+    double axial_step = 0.002;    ///< [m] step of the winner's fine scan
+    /// The end is invalid (not published) when the flipped axis direction of the winning model
+    /// scores less than this much worse (unexplained-point units): reject rather than guess.
+    double min_direction_margin = 20.0;
   } free_space;
 
   /// Depth noise model (Fankhauser et al. 2015, head-on): sigma = scale * (1.5 - 0.5 z + 0.3 z^2)

@@ -76,6 +76,11 @@ struct AxisFitResult {
   double rms = 0.0;  ///< [m] RMS of |distance to axis - radius| over inliers
 };
 
+/// Removes the points of a support plane (floor, catwalk) from an end's points, as configured in
+/// `config` (plane_*): returns the indices of the points kept; all of them when no plane is found.
+std::vector<size_t> removeSupportPlane(const std::vector<Eigen::Vector3f>& points,
+                                       const EstimatorConfig::AxisFit& config);
+
 /// Robust cylinder-axis fit with a known radius [m]: global-PCA and local-PCA (RANSAC) hypotheses,
 /// each refined by Gauss-Newton with Tukey weights, best truncated cost wins.
 AxisFitResult fitCylinderAxis(const std::vector<Eigen::Vector3f>& points, double radius,
@@ -166,6 +171,21 @@ double freeSpaceViolation(const std::vector<OrientedPoint>& samples,
                           const Eigen::Isometry3d& T_world_end,
                           const std::vector<CycleCamera>& cameras, double margin,
                           size_t* judged = nullptr);
+
+/// Symmetric free-space evidence of a model pose: the number of distinct depth pixels (summed
+/// over the cameras) on which a camera-facing model surface sample (end frame, outward normals)
+/// at T_world_end lands while the camera measured more than `margin` [m] behind it in the whole
+/// valid 3x3 neighbourhood (the camera saw through the model) by more than max(margin, 3 sigma of
+/// the depth noise at the sample's range and incidence). Samples seen at a cosine of incidence
+/// below min_cos_incidence are not judged (grazing). An absolute count, not a fraction:
+/// compared across hypotheses it charges each for every pixel its model claims wrongly, whatever
+/// it hides below a floor or behind clutter. `predicted` receives the number of distinct pixels
+/// the samples fall on.
+size_t seenThroughPixels(const std::vector<OrientedPoint>& samples,
+                         const Eigen::Isometry3d& T_world_end,
+                         const std::vector<CycleCamera>& cameras, double margin,
+                         const EstimatorConfig::Noise& noise, float min_cos_incidence,
+                         size_t* predicted = nullptr);
 
 /// Mean truncated squared distance [m^2] of the points to `model` placed at (origin, z).
 double profileCost(const std::vector<Eigen::Vector3f>& points, const ProfileModel& model,

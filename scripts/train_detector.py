@@ -1,0 +1,491 @@
+#!/usr/bin/env python3
+"""Trains the sensor node's tool-joint detector (box_end, pin_end) from scratch on CPU and exports
+it to ONNX for OpenCV's cv::dnn (the pipe_detector node, YoloDetector in core/detector).
+
+The network ("PipeYOLO") is a small anchor-free, single-scale YOLO-style detector defined here:
+a stride-32 LeakyReLU/BatchNorm backbone, a feature-pyramid path back to stride 8 (tool joints are
+10-60 px in QHD at the rig's 5-8 m), and one head at stride 8 whose output is the "grid" layout
+that core/detector/yolo_decoding.hpp decodes:
+
+    [1, 5 + C, H/8, W/8]: sigmoid(tx), sigmoid(ty), tw, th, sigmoid(obj), sigmoid(class)...
+    centre = (col + 2 sigmoid(tx) - 0.5) * 8,  size = 8 * exp(tw)   [input px]
+
+Fully convolutional: the exported model runs at any input size that is a multiple of 32.
+
+Data: a YOLO dataset as scripts/../src/tools/render_dataset writes it (images/<split>/*.jpg,
+labels/<split>/*.txt with `class cx cy w h` normalised). Training samples are random crops
+(--crop px) of randomly scaled images (--scale-min/--scale-max: the letterbox scale of the node's
+region of interest), mirrored, with brightness/contrast/colour jitter and blur.
+
+Typical use (about 45 minutes on 2 cores, see models/detector/README.md):
+    render_dataset --out D/train --random 160 --frames 5 --seed 1 --split train --format yolo
+    render_dataset --out D/val --random 16 --frames 5 --seed 2 --split val --format yolo
+    nice -n 19 /usr/bin/python3 scripts/train_detector.py --data D/train/yolo --val D/val/yolo \\
+        --val-split val --out models/detector --minutes 45
+CI (a few minutes at most, checks that the pipeline and the ONNX export still work):
+    /usr/bin/python3 scripts/train_detector.py --smoke --data SMOKE/yolo --out SMOKE/model
+"""
+
+import argparse
+import math
+import os
+import random
+import sys
+import time
+
+import numpy as np
+
+try:
+    import cv2
+except ImportError:  # pragma: no cover
+    sys.exit("train_detector: python3-opencv is required (apt-get install python3-opencv)")
+try:
+    import torch
+    import torch.nn as nn
+    import torch.nn.functional as F
+except ImportError:  # pragma: no cover
+    sys.exit("train_detector: python3-torch is required (apt-get install python3-torch)")
+
+CLASSES = ["box_end", "pin_end"]
+STRIDE = 8
+OPSET = 11  # OpenCV 4.6's ONNX importer reads opset 11 Resize/Concat/LeakyRelu reliably
+
+
+# --------------------------------------------------------------------------------------------
+# Network
+def conv(c_in, c_out, k=3, s=1):
+    return nn.Sequential(nn.Conv2d(c_in, c_out, k, s, k // 2, bias=False), nn.BatchNorm2d(c_out),
+                         nn.LeakyReLU(0.1, inplace=True))
+
+
+class Residual(nn.Module):
+    def __init__(self, c):
+        super().__init__()
+        self.a = conv(c, c // 2, 1)
+        self.b = conv(c // 2, c, 3)
+
+    def forward(self, x):
+        return x + self.b(self.a(x))
+
+
+class PipeYOLO(nn.Module):
+    """Anchor-free single-scale (stride 8) detector, ~0.4 M parameters for width 1.0."""
+
+    def __init__(self, num_classes=2, width=1.0):
+        super().__init__()
+        c = [max(8, int(round(v * width))) for v in (16, 32, 64, 96, 128)]
+        self.s2 = conv(3, c[0], 3, 2)
+        self.s4 = nn.Sequential(conv(c[0], c[1], 3, 2), Residual(c[1]))
+        self.s8 = nn.Sequential(conv(c[1], c[2], 3, 2), Residual(c[2]), Residual(c[2]))
+        self.s16 = nn.Sequential(conv(c[2], c[3], 3, 2), Residual(c[3]), Residual(c[3]))
+        self.s32 = nn.Sequential(conv(c[3], c[4], 3, 2), Residual(c[4]), conv(c[4], c[4], 1))
+        self.up32 = nn.Sequential(conv(c[4], c[3], 1), nn.Upsample(scale_factor=2, mode="nearest"))
+        self.p16 = nn.Sequential(conv(2 * c[3], c[3], 1), conv(c[3], c[3], 3))
+        self.up16 = nn.Sequential(conv(c[3], c[2], 1), nn.Upsample(scale_factor=2, mode="nearest"))
+        self.p8 = nn.Sequential(conv(2 * c[2], c[2], 1), conv(c[2], c[2], 3), conv(c[2], c[2], 3))
+        self.xy = nn.Conv2d(c[2], 2, 1)
+        self.wh = nn.Conv2d(c[2], 2, 1)
+        self.obj = nn.Conv2d(c[2], 1, 1)
+        self.cls = nn.Conv2d(c[2], num_classes, 1)
+        # Priors: objects are rare (obj ~ 0.01), sizes ~ 3 cells.
+        nn.init.constant_(self.obj.bias, -4.5)
+        nn.init.constant_(self.wh.bias, 1.0)
+        nn.init.constant_(self.cls.bias, -1.0)
+
+    def features(self, x):
+        x8 = self.s8(self.s4(self.s2(x)))
+        x16 = self.s16(x8)
+        x32 = self.s32(x16)
+        p16 = self.p16(torch.cat([self.up32(x32), x16], 1))
+        return self.p8(torch.cat([self.up16(p16), x8], 1))
+
+    def forward_raw(self, x):
+        f = self.features(x)
+        return self.xy(f), self.wh(f), self.obj(f), self.cls(f)
+
+    def forward(self, x):
+        """The exported "grid" output: [B, 5 + C, H/8, W/8]."""
+        xy, wh, obj, cls = self.forward_raw(x)
+        return torch.cat([torch.sigmoid(xy), wh, torch.sigmoid(obj), torch.sigmoid(cls)], 1)
+
+
+# --------------------------------------------------------------------------------------------
+# Data
+def read_split(root, split):
+    """(image path, labels array [n, 5] = class, x0, y0, x1, y1 in pixels) for a YOLO split."""
+    img_dir = os.path.join(root, "images", split)
+    lab_dir = os.path.join(root, "labels", split)
+    if not os.path.isdir(img_dir):
+        sys.exit("train_detector: no image folder %s (expected a YOLO dataset: images/%s, "
+                 "labels/%s)" % (img_dir, split, split))
+    items = []
+    for name in sorted(os.listdir(img_dir)):
+        stem, ext = os.path.splitext(name)
+        if ext.lower() not in (".jpg", ".jpeg", ".png"):
+            continue
+        path = os.path.join(img_dir, name)
+        rows = []
+        lp = os.path.join(lab_dir, stem + ".txt")
+        if os.path.exists(lp):
+            for line in open(lp):
+                v = line.split()
+                if len(v) == 5:
+                    rows.append([float(x) for x in v])
+        items.append((path, np.array(rows, dtype=np.float32).reshape(-1, 5)))
+    if not items:
+        sys.exit("train_detector: %s holds no images" % img_dir)
+    return items
+
+
+class Samples:
+    """Images kept JPEG-compressed in memory; random scaled crops on demand."""
+
+    def __init__(self, items, crop, scale_min, scale_max, augment=True):
+        self.crop, self.smin, self.smax, self.augment = crop, scale_min, scale_max, augment
+        self.data = []
+        for path, lab in items:
+            with open(path, "rb") as f:
+                buf = np.frombuffer(f.read(), np.uint8)
+            self.data.append((buf, lab))
+
+    def __len__(self):
+        return len(self.data)
+
+    def image(self, i):
+        buf, lab = self.data[i]
+        img = cv2.imdecode(buf, cv2.IMREAD_COLOR)
+        h, w = img.shape[:2]
+        boxes = np.zeros((len(lab), 5), np.float32)
+        if len(lab):
+            boxes[:, 0] = lab[:, 0]
+            boxes[:, 1] = (lab[:, 1] - lab[:, 3] / 2) * w
+            boxes[:, 2] = (lab[:, 2] - lab[:, 4] / 2) * h
+            boxes[:, 3] = (lab[:, 1] + lab[:, 3] / 2) * w
+            boxes[:, 4] = (lab[:, 2] + lab[:, 4] / 2) * h
+        return img, boxes
+
+    def sample(self, i, rng):
+        img, boxes = self.image(i)
+        s = math.exp(rng.uniform(math.log(self.smin), math.log(self.smax)))
+        img = cv2.resize(img, None, fx=s, fy=s,
+                         interpolation=cv2.INTER_AREA if s < 1 else cv2.INTER_LINEAR)
+        boxes[:, 1:] *= s
+        h, w = img.shape[:2]
+        c = self.crop
+        # Centre the crop near an object most of the time.
+        if len(boxes) and rng.random() < 0.85:
+            b = boxes[rng.randrange(len(boxes))]
+            cx = (b[1] + b[3]) / 2 + rng.uniform(-0.4, 0.4) * c
+            cy = (b[2] + b[4]) / 2 + rng.uniform(-0.4, 0.4) * c
+        else:
+            cx, cy = rng.uniform(0, w), rng.uniform(0, h)
+        x0 = int(round(cx - c / 2))
+        y0 = int(round(cy - c / 2))
+        out = np.full((c, c, 3), 114, np.uint8)
+        sx0, sy0 = max(x0, 0), max(y0, 0)
+        sx1, sy1 = min(x0 + c, w), min(y0 + c, h)
+        if sx1 > sx0 and sy1 > sy0:
+            out[sy0 - y0:sy1 - y0, sx0 - x0:sx1 - x0] = img[sy0:sy1, sx0:sx1]
+        boxes[:, [1, 3]] -= x0
+        boxes[:, [2, 4]] -= y0
+        # Keep boxes with >= 50 % of their area inside the crop (clipped); ignore-free.
+        if len(boxes):
+            area = (boxes[:, 3] - boxes[:, 1]) * (boxes[:, 4] - boxes[:, 2])
+            cl = boxes.copy()
+            cl[:, [1, 3]] = cl[:, [1, 3]].clip(0, c)
+            cl[:, [2, 4]] = cl[:, [2, 4]].clip(0, c)
+            carea = (cl[:, 3] - cl[:, 1]).clip(0) * (cl[:, 4] - cl[:, 2]).clip(0)
+            boxes = cl[(carea >= 0.5 * area) & (carea > 4)]
+        if self.augment:
+            if rng.random() < 0.5:  # mirror
+                out = out[:, ::-1].copy()
+                x0b = c - boxes[:, 3]
+                boxes[:, 3] = c - boxes[:, 1]
+                boxes[:, 1] = x0b
+            f = out.astype(np.float32)
+            f = f * rng.uniform(0.65, 1.35) + rng.uniform(-30, 30)  # contrast, brightness
+            f *= np.array([rng.uniform(0.85, 1.15) for _ in range(3)], np.float32)  # white bal.
+            if rng.random() < 0.3:
+                f = cv2.GaussianBlur(f, (3, 3), rng.uniform(0.3, 1.0))
+            if rng.random() < 0.5:
+                f += np.random.normal(0, rng.uniform(1, 6), f.shape).astype(np.float32)
+            out = f.clip(0, 255).astype(np.uint8)
+        return out, boxes
+
+
+def to_tensor(imgs):
+    """BGR uint8 HWC list -> RGB float NCHW in [0, 1] (as cv::dnn blobFromImage(swapRB))."""
+    a = np.stack([im[:, :, ::-1] for im in imgs]).astype(np.float32) / 255.0
+    return torch.from_numpy(np.ascontiguousarray(a.transpose(0, 3, 1, 2)))
+
+
+# --------------------------------------------------------------------------------------------
+# Loss
+def box_giou(a, b):
+    """GIoU of boxes [N, 4] (x0, y0, x1, y1)."""
+    iw = (torch.min(a[:, 2], b[:, 2]) - torch.max(a[:, 0], b[:, 0])).clamp(min=0)
+    ih = (torch.min(a[:, 3], b[:, 3]) - torch.max(a[:, 1], b[:, 1])).clamp(min=0)
+    inter = iw * ih
+    area_a = (a[:, 2] - a[:, 0]) * (a[:, 3] - a[:, 1])
+    area_b = (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])
+    union = area_a + area_b - inter + 1e-7
+    iou = inter / union
+    cw = torch.max(a[:, 2], b[:, 2]) - torch.min(a[:, 0], b[:, 0])
+    ch = torch.max(a[:, 3], b[:, 3]) - torch.min(a[:, 1], b[:, 1])
+    carea = cw * ch + 1e-7
+    return iou - (carea - union) / carea, iou
+
+
+def build_targets(batch_boxes, H, W, nc):
+    """Positives: the cell holding each box centre plus its two nearest neighbours (YOLOv5)."""
+    bi, gy, gx, tbox, tcls = [], [], [], [], []
+    for b, boxes in enumerate(batch_boxes):
+        for row in boxes:
+            cls, x0, y0, x1, y1 = row
+            cx, cy = (x0 + x1) / 2 / STRIDE, (y0 + y1) / 2 / STRIDE
+            j, i = int(cx), int(cy)
+            fx, fy = cx - j, cy - i
+            cells = [(i, j), (i, j + (1 if fx > 0.5 else -1)), (i + (1 if fy > 0.5 else -1), j)]
+            for (ci, cj) in cells:
+                if 0 <= ci < H and 0 <= cj < W:
+                    bi.append(b)
+                    gy.append(ci)
+                    gx.append(cj)
+                    tbox.append([x0, y0, x1, y1])
+                    tcls.append(int(cls))
+    return (torch.tensor(bi, dtype=torch.long), torch.tensor(gy, dtype=torch.long),
+            torch.tensor(gx, dtype=torch.long), torch.tensor(tbox, dtype=torch.float32).reshape(-1, 4),
+            torch.tensor(tcls, dtype=torch.long))
+
+
+def compute_loss(model, imgs, batch_boxes, nc):
+    xy, wh, obj, cls = model.forward_raw(imgs)
+    B, _, H, W = obj.shape
+    bi, gy, gx, tbox, tcls = build_targets(batch_boxes, H, W, nc)
+    tobj = torch.zeros_like(obj)
+    lbox = torch.zeros(())
+    lcls = torch.zeros(())
+    if len(bi):
+        pxy = torch.sigmoid(xy[bi, :, gy, gx])
+        pwh = wh[bi, :, gy, gx].clamp(max=8.0)
+        cx = (gx.float() + 2 * pxy[:, 0] - 0.5) * STRIDE
+        cy = (gy.float() + 2 * pxy[:, 1] - 0.5) * STRIDE
+        w = STRIDE * torch.exp(pwh[:, 0])
+        h = STRIDE * torch.exp(pwh[:, 1])
+        pbox = torch.stack([cx - w / 2, cy - h / 2, cx + w / 2, cy + h / 2], 1)
+        giou, iou = box_giou(pbox, tbox)
+        lbox = (1.0 - giou).mean()
+        tobj[bi, 0, gy, gx] = iou.detach().clamp(0).float() * 0.5 + 0.5
+        t = torch.zeros(len(bi), nc)
+        t[torch.arange(len(bi)), tcls] = 1.0
+        lcls = F.binary_cross_entropy_with_logits(cls[bi, :, gy, gx], t)
+    lobj = F.binary_cross_entropy_with_logits(obj, tobj, reduction="sum") / (B * 64.0)
+    return 2.0 * lbox + lobj + 1.0 * lcls, (float(lbox), float(lobj), float(lcls))
+
+
+# --------------------------------------------------------------------------------------------
+# Evaluation (quick, in Python: the authoritative figure comes from the C++ detector_eval tool)
+def decode(out, conf=0.01):
+    """Grid output [5+C, H, W] (numpy) -> list of (cls, score, x0, y0, x1, y1) in input px."""
+    C, H, W = out.shape
+    nc = C - 5
+    ys, xs = np.nonzero(out[4] >= conf)
+    dets = []
+    for y, x in zip(ys, xs):
+        cx = (x + 2 * out[0, y, x] - 0.5) * STRIDE
+        cy = (y + 2 * out[1, y, x] - 0.5) * STRIDE
+        w = STRIDE * math.exp(min(out[2, y, x], 8.0))
+        h = STRIDE * math.exp(min(out[3, y, x], 8.0))
+        for c in range(nc):
+            s = out[4, y, x] * out[5 + c, y, x]
+            if s >= conf:
+                dets.append((c, s, cx - w / 2, cy - h / 2, cx + w / 2, cy + h / 2))
+    return dets
+
+
+def iou_np(a, b):
+    iw = max(0.0, min(a[2], b[2]) - max(a[0], b[0]))
+    ih = max(0.0, min(a[3], b[3]) - max(a[1], b[1]))
+    inter = iw * ih
+    u = (a[2] - a[0]) * (a[3] - a[1]) + (b[2] - b[0]) * (b[3] - b[1]) - inter
+    return inter / u if u > 0 else 0.0
+
+
+def nms(dets, thr=0.45):
+    dets = sorted(dets, key=lambda d: -d[1])
+    keep = []
+    for d in dets:
+        if all(k[0] != d[0] or iou_np(k[2:], d[2:]) <= thr for k in keep):
+            keep.append(d)
+    return keep
+
+
+def average_precision(scores_tp, n_gt):
+    """VOC all-point interpolated AP from [(score, is_tp)]."""
+    if n_gt == 0:
+        return float("nan")
+    scores_tp.sort(key=lambda s: -s[0])
+    tp = np.cumsum([t for _, t in scores_tp]) if scores_tp else np.zeros(0)
+    fp = np.cumsum([1 - t for _, t in scores_tp]) if scores_tp else np.zeros(0)
+    rec = tp / n_gt if len(tp) else np.zeros(0)
+    prec = tp / np.maximum(tp + fp, 1e-9) if len(tp) else np.zeros(0)
+    mrec = np.concatenate([[0.0], rec, [1.0]])
+    mpre = np.concatenate([[1.0], prec, [0.0]])
+    for i in range(len(mpre) - 2, -1, -1):
+        mpre[i] = max(mpre[i], mpre[i + 1])
+    idx = np.where(mrec[1:] != mrec[:-1])[0]
+    return float(np.sum((mrec[idx + 1] - mrec[idx]) * mpre[idx + 1]))
+
+
+def evaluate(model, items, scale, nc, limit=None):
+    """mAP@0.5 per class on whole images scaled by `scale` and padded to a multiple of 32."""
+    model.eval()
+    per = [[] for _ in range(nc)]
+    ngt = [0] * nc
+    with torch.no_grad():
+        for path, lab in items[:limit]:
+            img = cv2.imread(path)
+            h, w = img.shape[:2]
+            rw, rh = int(round(w * scale)), int(round(h * scale))
+            W, H = (rw + 31) // 32 * 32, (rh + 31) // 32 * 32
+            inp = np.full((H, W, 3), 114, np.uint8)
+            px, py = (W - rw) // 2, (H - rh) // 2
+            inp[py:py + rh, px:px + rw] = cv2.resize(img, (rw, rh), interpolation=cv2.INTER_AREA)
+            out = model(to_tensor([inp]))[0].numpy()
+            dets = nms(decode(out))
+            gts = []
+            for c, x, y, bw, bh in lab:
+                gts.append((int(c), (x - bw / 2) * w, (y - bh / 2) * h, (x + bw / 2) * w,
+                            (y + bh / 2) * h))
+                ngt[int(c)] += 1
+            used = [False] * len(gts)
+            for c, s, x0, y0, x1, y1 in dets:
+                box = ((x0 - px) / scale, (y0 - py) / scale, (x1 - px) / scale, (y1 - py) / scale)
+                best, bj = 0.5, -1
+                for j, g in enumerate(gts):
+                    if g[0] == c and not used[j]:
+                        o = iou_np(box, g[1:])
+                        if o >= best:
+                            best, bj = o, j
+                if bj >= 0:
+                    used[bj] = True
+                per[c].append((s, 1 if bj >= 0 else 0))
+    model.train()
+    return [average_precision(per[c], ngt[c]) for c in range(nc)], ngt
+
+
+# --------------------------------------------------------------------------------------------
+def export_onnx(model, path, size):
+    model.eval()
+    dummy = torch.zeros(1, 3, size[1], size[0])
+    torch.onnx.export(model, dummy, path, opset_version=OPSET, input_names=["images"],
+                      output_names=["output"], do_constant_folding=True)
+    model.train()
+    # Check that OpenCV's importer reads it and that it runs at another input size too.
+    net = cv2.dnn.readNetFromONNX(path)
+    for w, h in (size, (size[0] + 64, size[1] + 32)):
+        net.setInput(np.zeros((1, 3, h, w), np.float32))
+        out = net.forward()
+        if out.shape != (1, 5 + len(CLASSES), h // STRIDE, w // STRIDE):
+            sys.exit("train_detector: OpenCV runs %s at %dx%d with output %s, expected %s" %
+                     (path, w, h, out.shape, (1, 5 + len(CLASSES), h // STRIDE, w // STRIDE)))
+    print("exported %s (opset %d, %.2f MB), OpenCV %s reads it" %
+          (path, OPSET, os.path.getsize(path) / 1e6, cv2.__version__))
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    ap.add_argument("--data", required=True, help="YOLO dataset root (images/, labels/)")
+    ap.add_argument("--split", default="train")
+    ap.add_argument("--val", help="YOLO dataset root for validation (default: none)")
+    ap.add_argument("--val-split", default="val")
+    ap.add_argument("--out", required=True, help="output folder for pipe_yolo.onnx / .pt")
+    ap.add_argument("--name", default="pipe_yolo")
+    ap.add_argument("--minutes", type=float, default=45.0, help="training time budget [min]")
+    ap.add_argument("--epochs", type=int, default=1000, help="upper bound on epochs")
+    ap.add_argument("--batch", type=int, default=16)
+    ap.add_argument("--crop", type=int, default=256, help="training crop [px]")
+    ap.add_argument("--scale-min", type=float, default=0.5)
+    ap.add_argument("--scale-max", type=float, default=1.3)
+    ap.add_argument("--eval-scale", type=float, default=0.667,
+                    help="image scale for the quick validation mAP (0.667: QHD -> 640 px wide)")
+    ap.add_argument("--width", type=float, default=1.0, help="channel width multiplier")
+    ap.add_argument("--lr", type=float, default=2e-3)
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--export-size", default="416x416", help="ONNX input WxH (any works later)")
+    ap.add_argument("--resume", help="a .pt checkpoint to continue from")
+    ap.add_argument("--smoke", action="store_true",
+                    help="CI mode: at most 16 images, one epoch, small crops, export + OpenCV check")
+    a = ap.parse_args()
+
+    torch.set_num_threads(max(1, a.threads))
+    random.seed(a.seed)
+    np.random.seed(a.seed)
+    torch.manual_seed(a.seed)
+    rng = random.Random(a.seed)
+    items = read_split(a.data, a.split)
+    if a.smoke:
+        items = items[:16]
+        a.epochs, a.batch, a.crop, a.minutes = 1, 4, 128, 5.0
+    val_items = read_split(a.val, a.val_split) if a.val else []
+    data = Samples(items, a.crop, a.scale_min, a.scale_max)
+    nc = len(CLASSES)
+    model = PipeYOLO(nc, a.width)
+    if a.resume:
+        model.load_state_dict(torch.load(a.resume))
+    nparams = sum(p.numel() for p in model.parameters())
+    print("PipeYOLO: %.3f M parameters, %d training images, crop %d, scale %.2f-%.2f, "
+          "%.0f min budget, %d threads" % (nparams / 1e6, len(data), a.crop, a.scale_min,
+                                          a.scale_max, a.minutes, a.threads))
+    opt = torch.optim.AdamW(model.parameters(), lr=a.lr, weight_decay=5e-4)
+    os.makedirs(a.out, exist_ok=True)
+    budget = a.minutes * 60.0
+    t0 = time.time()
+    step = 0
+    steps_per_epoch = max(1, len(data) // a.batch)
+    done = False
+    for epoch in range(a.epochs):
+        order = list(range(len(data)))
+        rng.shuffle(order)
+        run = [0.0, 0.0, 0.0]
+        for k in range(steps_per_epoch):
+            frac = min(1.0, (time.time() - t0) / budget)
+            warm = min(1.0, (step + 1) / 100.0)
+            for g in opt.param_groups:  # warm-up, then cosine over the time budget
+                g["lr"] = a.lr * warm * (0.05 + 0.95 * 0.5 * (1 + math.cos(math.pi * frac)))
+            idx = order[k * a.batch:(k + 1) * a.batch]
+            imgs, boxes = zip(*[data.sample(i, rng) for i in idx])
+            loss, parts = compute_loss(model, to_tensor(imgs), boxes, nc)
+            opt.zero_grad()
+            loss.backward()
+            torch.nn.utils.clip_grad_norm_(model.parameters(), 10.0)
+            opt.step()
+            step += 1
+            run = [r + p for r, p in zip(run, parts)]
+            if step % 50 == 0:
+                el = time.time() - t0
+                print("epoch %d step %d  box %.3f obj %.4f cls %.3f  lr %.2e  %.0f s (%.1f img/s)" %
+                      (epoch, step, run[0] / (k + 1), run[1] / (k + 1), run[2] / (k + 1),
+                       opt.param_groups[0]["lr"], el, step * a.batch / el), flush=True)
+            if time.time() - t0 > budget:
+                done = True
+                break
+        torch.save(model.state_dict(), os.path.join(a.out, a.name + ".pt"))
+        if val_items and (done or epoch % 3 == 2):
+            aps, ngt = evaluate(model, val_items, a.eval_scale, nc, limit=150)
+            print("epoch %d: validation AP@0.5 %s (gt %s), %.0f s" %
+                  (epoch, " ".join("%s %.3f" % (c, ap) for c, ap in zip(CLASSES, aps)), ngt,
+                   time.time() - t0), flush=True)
+        if done:
+            break
+    w, h = (int(v) for v in a.export_size.split("x"))
+    export_onnx(model, os.path.join(a.out, a.name + ".onnx"), (w, h))
+    with open(os.path.join(a.out, "labels.txt"), "w") as f:
+        f.write("# Class names of %s.onnx, in model order (one per line).\n" % a.name)
+        f.write("\n".join(CLASSES) + "\n")
+    print("done in %.1f min" % ((time.time() - t0) / 60))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,285 @@
+// pipe_detector: the sensor node's 2D detector. Subscribes to one camera's kinect2_bridge-style
+// topics (QHD colour + info, SD depth + info; approximate sync on the CAPTURE stamps), runs a
+// YOLO model through OpenCV's cv::dnn (core YoloDetector) and publishes one
+// drill_pipe_pose/SensorFrame per colour frame on <cam>/sensor_frame, stamped with the colour
+// image's capture time (never the publish time).
+//
+// Parameters (private; defaults in brackets):
+//   camera (string, required)        <cam>: topics <cam>/qhd/..., <cam>/sd/..., <cam>/sensor_frame
+//   model [$(find drill_pipe_pose)/models/detector/pipe_yolo.onnx]   .onnx or Darknet .weights
+//   darknet_cfg [""]                 Darknet .cfg (empty: model path with .cfg)
+//   labels [[box_end, pin_end]]      class names in model order (box_end, pin_end or ignore)
+//   labels_file [""]                 one class name per line; overrides labels when set
+//   output_format [auto]             auto | grid | yolov5 | yolov8 | darknet
+//   input_width [640], input_height [384]   network input [px], multiples of 32
+//   allow_upscale [false]            enlarge a roi smaller than the input
+//   confidence_threshold [0.25], nms_threshold [0.45], cross_class_nms_threshold [0.7]
+//   max_boxes_per_class [1]          <= 0: unlimited
+//   roi [[]]                         [x, y, width, height] of the colour image [px]; [] = whole
+//   crop_depth [false]               send depth cropped to the boxes' frustum (depth_info.roi)
+//   crop_margin_px [12.0], crop_min_range [0.3], crop_max_range [12.0]   (core DepthCropConfig)
+//   sync_slop [0.02]                 [s] max colour/depth stamp difference
+//   queue_size [2]                   per-topic subscriber queue (small: always the latest frame)
+//   max_rate [0.0]                   [Hz] process at most this many frames per second; 0: all
+//   num_threads [1]                  OpenCV threads for inference
+//   tf_timeout [0.05]                [s] wait for <cam>_rgb_optical_frame <- <cam>_ir_optical_frame
+// Publishes <cam>/sensor_frame and ~debug_image (bgr8, annotated; only while subscribed).
+#include <drill_pipe_pose/SensorFrame.h>
+#include <message_filters/subscriber.h>
+#include <message_filters/sync_policies/approximate_time.h>
+#include <message_filters/synchronizer.h>
+#include <ros/package.h>
+#include <ros/ros.h>
+#include <tf2_eigen/tf2_eigen.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
+
+#include <opencv2/core.hpp>
+
+#include <optional>
+
+#include "drill_pipe_pose/core/depth_crop.hpp"
+#include "drill_pipe_pose/core/detector/yolo_detector.hpp"
+#include "drill_pipe_pose/core/errors.hpp"
+#include "drill_pipe_pose/ros/conversions.hpp"
+#include "drill_pipe_pose/ros/params.hpp"
+
+namespace drill_pipe_pose {
+namespace {
+
+using sensor_msgs::CameraInfo;
+using sensor_msgs::CameraInfoConstPtr;
+using sensor_msgs::Image;
+using sensor_msgs::ImageConstPtr;
+using SyncPolicy =
+    message_filters::sync_policies::ApproximateTime<Image, CameraInfo, Image, CameraInfo>;
+
+class PipeDetectorNode {
+ public:
+  PipeDetectorNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh_(pnh), tf_(tf_buffer_) {
+    readParam(pnh, "camera", camera_);
+    if (camera_.empty())
+      fail("parameter ", pnh.resolveName("camera"),
+           " is missing: the sensor node's name <cam> (topics <cam>/qhd/image_color_rect, ...)");
+    detector::DetectorConfig c;
+    c.model = ros::package::getPath("drill_pipe_pose") + "/models/detector/pipe_yolo.onnx";
+    readParam(pnh, "model", c.model);
+    readParam(pnh, "darknet_cfg", c.darknet_cfg);
+    readParam(pnh, "labels", c.labels);
+    std::string labels_file, format = "auto";
+    readParam(pnh, "labels_file", labels_file);
+    if (!labels_file.empty()) c.labels = detector::readLabelsFile(labels_file);
+    readParam(pnh, "output_format", format);
+    c.format = detector::parseOutputFormat(format, "parameter " + pnh.resolveName("output_format"));
+    readParam(pnh, "input_width", c.input_width);
+    readParam(pnh, "input_height", c.input_height);
+    readParam(pnh, "allow_upscale", c.allow_upscale);
+    readNumber(pnh, "confidence_threshold", c.confidence_threshold, 1e-6);
+    readNumber(pnh, "nms_threshold", c.nms_threshold, 1e-6);
+    readNumber(pnh, "cross_class_nms_threshold", c.cross_class_nms_threshold, 0.0);
+    readParam(pnh, "max_boxes_per_class", c.max_boxes_per_class);
+    readParam(pnh, "num_threads", c.num_threads);
+    std::vector<double> roi;
+    readParam(pnh, "roi", roi);
+    roi_param_ = "parameter " + pnh.resolveName("roi");
+    if (!roi.empty()) {
+      if (roi.size() != 4)
+        fail(roi_param_,
+             ": expected [x, y, width, height] in colour pixels (or [] for the whole "
+             "image), got ",
+             roi.size(), " numbers");
+      for (size_t i = 0; i < 4; ++i)
+        if (!(roi[i] >= 0.0) || roi[i] != std::floor(roi[i]))
+          fail(roi_param_, "[", i, "] = ", roi[i], ": must be a non-negative integer");
+      c.roi.x_offset = static_cast<uint32_t>(roi[0]);
+      c.roi.y_offset = static_cast<uint32_t>(roi[1]);
+      c.roi.width = static_cast<uint32_t>(roi[2]);
+      c.roi.height = static_cast<uint32_t>(roi[3]);
+      if (c.roi.width == 0 || c.roi.height == 0)
+        fail(roi_param_, " = [", roi[0], ", ", roi[1], ", ", roi[2], ", ", roi[3],
+             "]: width and height must be > 0");
+    }
+    readParam(pnh, "crop_depth", crop_depth_);
+    readNumber(pnh, "crop_margin_px", crop_.margin_px, 0.0);
+    readNumber(pnh, "crop_min_range", crop_.min_range, 0.0);
+    readNumber(pnh, "crop_max_range", crop_.max_range, 0.0);
+    double slop = 0.02, tf_timeout = 0.05;
+    int queue = 2;
+    readNumber(pnh, "sync_slop", slop, 0.0);
+    readParam(pnh, "queue_size", queue);
+    readNumber(pnh, "max_rate", max_rate_, 0.0);
+    readNumber(pnh, "tf_timeout", tf_timeout, 0.0);
+    tf_timeout_ = ros::Duration(tf_timeout);
+    queue = std::max(queue, 1);
+
+    detector_.emplace(c);  // loads and checks the model: InputError names the file
+
+    color_topic_ = nh_.resolveName(conventions::colorImageTopic(camera_));
+    color_info_topic_ = nh_.resolveName(conventions::colorInfoTopic(camera_));
+    depth_topic_ = nh_.resolveName(conventions::depthImageTopic(camera_));
+    depth_info_topic_ = nh_.resolveName(conventions::depthInfoTopic(camera_));
+    pub_ = nh_.advertise<SensorFrame>(conventions::sensorFrameTopic(camera_), 5);
+    debug_pub_ = pnh_.advertise<Image>("debug_image", 1);
+    color_sub_.subscribe(nh_, color_topic_, queue);
+    color_info_sub_.subscribe(nh_, color_info_topic_, queue);
+    depth_sub_.subscribe(nh_, depth_topic_, queue);
+    depth_info_sub_.subscribe(nh_, depth_info_topic_, queue);
+    sync_.reset(new message_filters::Synchronizer<SyncPolicy>(
+        SyncPolicy(std::max(queue, 5)), color_sub_, color_info_sub_, depth_sub_, depth_info_sub_));
+    sync_->setMaxIntervalDuration(ros::Duration(slop));
+    sync_->registerCallback(&PipeDetectorNode::onFrames, this);
+
+    const auto& l = detector_->layout();
+    std::string labels;
+    for (const auto& s : c.labels) labels += (labels.empty() ? "" : ", ") + s;
+    ROS_INFO(
+        "pipe_detector %s: model %s (%s output, %d classes: %s), input %dx%d, roi %s, "
+        "confidence >= %.2f, NMS %.2f (cross-class %.2f), max %d box(es) per class, depth %s, "
+        "sync slop %.3f s, max rate %s, %d thread(s); %s + %s + %s + %s -> %s",
+        camera_.c_str(), c.model.c_str(), detector::outputFormatName(l.format), l.num_classes,
+        labels.c_str(), c.input_width, c.input_height,
+        c.roi.isFull() ? "whole image"
+                       : (std::to_string(c.roi.x_offset) + "," + std::to_string(c.roi.y_offset) +
+                          " " + std::to_string(c.roi.width) + "x" + std::to_string(c.roi.height))
+                             .c_str(),
+        c.confidence_threshold, c.nms_threshold, c.cross_class_nms_threshold, c.max_boxes_per_class,
+        crop_depth_ ? "cropped to the boxes" : "full", slop,
+        max_rate_ > 0 ? (std::to_string(max_rate_) + " Hz").c_str() : "unlimited", c.num_threads,
+        color_topic_.c_str(), color_info_topic_.c_str(), depth_topic_.c_str(),
+        depth_info_topic_.c_str(), pub_.getTopic().c_str());
+  }
+
+ private:
+  void onFrames(const ImageConstPtr& color, const CameraInfoConstPtr& color_info,
+                const ImageConstPtr& depth, const CameraInfoConstPtr& depth_info) {
+    const ros::Time stamp = color->header.stamp;
+    if (max_rate_ > 0 && !last_stamp_.isZero() && stamp > last_stamp_ &&
+        (stamp - last_stamp_).toSec() < 1.0 / max_rate_)
+      return;
+    if (stamp < last_stamp_) last_stamp_ = ros::Time();  // bag loop / clock jump back
+    try {
+      process(color, color_info, depth, depth_info);
+      last_stamp_ = stamp;
+    } catch (const InputError& e) {
+      ROS_ERROR_THROTTLE(5.0, "pipe_detector %s: %s (frame dropped; throttled, 5 s)",
+                         camera_.c_str(), e.what());
+    } catch (const cv::Exception& e) {
+      ROS_ERROR_THROTTLE(5.0, "pipe_detector %s: OpenCV: %s (frame dropped; throttled, 5 s)",
+                         camera_.c_str(), e.what());
+    }
+  }
+
+  void process(const ImageConstPtr& color, const CameraInfoConstPtr& color_info,
+               const ImageConstPtr& depth, const CameraInfoConstPtr& depth_info) {
+    detector::checkSameCamera(camera_, color->header.frame_id, color_topic_, depth->header.frame_id,
+                              depth_topic_);
+    if (color_info->header.frame_id != color->header.frame_id)
+      fail(color_info_topic_, ": frame_id '", color_info->header.frame_id, "' differs from ",
+           color_topic_, "'s '", color->header.frame_id, "'");
+    if (depth_info->header.frame_id != depth->header.frame_id)
+      fail(depth_info_topic_, ": frame_id '", depth_info->header.frame_id, "' differs from ",
+           depth_topic_, "'s '", depth->header.frame_id, "'");
+    SensorFrameData f;
+    f.camera = camera_;
+    f.stamp_ns = toNs(color->header.stamp);
+    f.frame_id = color->header.frame_id;
+    f.color_info = fromMsg(*color_info);
+    f.depth_info = fromMsg(*depth_info);
+    f.depth_stamp_ns = toNs(depth->header.stamp);
+    f.depth_frame_id = depth->header.frame_id;
+    const PinholeCamera color_cam = PinholeCamera::fromCameraInfo(f.color_info, color_info_topic_);
+    if (color->width != color_cam.imageWidth() || color->height != color_cam.imageHeight())
+      fail(color_topic_, ": image is ", color->width, " x ", color->height, " px, ",
+           color_info_topic_, " says ", color_cam.imageWidth(), " x ", color_cam.imageHeight());
+    f.depth = depthFromMsg(depth, depth_topic_);
+    validateDepthImage(f.depth, PinholeCamera::fromCameraInfo(f.depth_info, depth_info_topic_),
+                       depth_topic_);
+    const cv::Mat bgr =
+        detector::colorImageToBgr(color->encoding, color->width, color->height, color->step,
+                                  color->data.data(), color->data.size(), color_topic_);
+    detector::checkRoi(detector_->config().roi, color->width, color->height, roi_param_);
+    f.boxes = detector_->detect(bgr);
+    const detector::DetectorTiming& t = detector_->lastTiming();
+    ROS_DEBUG("pipe_detector %s: %zu boxes, %.1f ms (pre %.1f, net %.1f, post %.1f)",
+              camera_.c_str(), f.boxes.size(), t.total(), t.preprocess_ms, t.inference_ms,
+              t.postprocess_ms);
+
+    if (crop_depth_) {
+      const std::optional<Eigen::Isometry3d> T = colorFromDepth(f.frame_id, f.depth_frame_id);
+      if (T) {
+        f = cropDepthToBoxes(f, *T, crop_);
+      } else {
+        ROS_WARN_THROTTLE(5.0,
+                          "pipe_detector %s: no TF %s <- %s yet: sending the full depth "
+                          "image (throttled, 5 s)",
+                          camera_.c_str(), f.frame_id.c_str(), f.depth_frame_id.c_str());
+      }
+    }
+    pub_.publish(toMsg(f));
+
+    if (debug_pub_.getNumSubscribers() > 0) {
+      cv::Mat img = bgr.clone();
+      detector::drawDetections(img, f.boxes, detector_->config().roi);
+      Image m;
+      m.header = color->header;
+      m.width = static_cast<uint32_t>(img.cols);
+      m.height = static_cast<uint32_t>(img.rows);
+      m.encoding = "bgr8";
+      m.step = static_cast<uint32_t>(img.cols * 3);
+      m.data.assign(img.data, img.data + img.total() * 3);
+      debug_pub_.publish(m);
+    }
+  }
+
+  /// T_color_depth from TF (static in practice: cached once found).
+  std::optional<Eigen::Isometry3d> colorFromDepth(const std::string& color_frame,
+                                                  const std::string& depth_frame) {
+    if (T_color_depth_ && cached_color_frame_ == color_frame && cached_depth_frame_ == depth_frame)
+      return T_color_depth_;
+    try {
+      const geometry_msgs::TransformStamped tf =
+          tf_buffer_.lookupTransform(color_frame, depth_frame, ros::Time(0), tf_timeout_);
+      T_color_depth_ = tf2::transformToEigen(tf);
+      cached_color_frame_ = color_frame;
+      cached_depth_frame_ = depth_frame;
+      return T_color_depth_;
+    } catch (const tf2::TransformException& e) {
+      ROS_WARN_THROTTLE(5.0, "pipe_detector %s: TF %s <- %s: %s (throttled, 5 s)", camera_.c_str(),
+                        color_frame.c_str(), depth_frame.c_str(), e.what());
+      return std::nullopt;
+    }
+  }
+
+  ros::NodeHandle nh_, pnh_;
+  std::string camera_, roi_param_;
+  std::string color_topic_, color_info_topic_, depth_topic_, depth_info_topic_;
+  std::optional<detector::YoloDetector> detector_;
+  bool crop_depth_ = false;
+  DepthCropConfig crop_;
+  double max_rate_ = 0.0;
+  ros::Time last_stamp_;
+  ros::Duration tf_timeout_;
+  tf2_ros::Buffer tf_buffer_;
+  tf2_ros::TransformListener tf_;
+  std::optional<Eigen::Isometry3d> T_color_depth_;
+  std::string cached_color_frame_, cached_depth_frame_;
+  ros::Publisher pub_, debug_pub_;
+  message_filters::Subscriber<Image> color_sub_, depth_sub_;
+  message_filters::Subscriber<CameraInfo> color_info_sub_, depth_info_sub_;
+  std::unique_ptr<message_filters::Synchronizer<SyncPolicy>> sync_;
+};
+
+}  // namespace
+}  // namespace drill_pipe_pose
+
+int main(int argc, char** argv) {
+  ros::init(argc, argv, "pipe_detector");
+  try {
+    drill_pipe_pose::PipeDetectorNode node(ros::NodeHandle(), ros::NodeHandle("~"));
+    ros::spin();
+  } catch (const drill_pipe_pose::InputError& e) {
+    ROS_FATAL("pipe_detector: %s", e.what());
+    return 1;
+  }
+  return 0;
+}

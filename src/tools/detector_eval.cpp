@@ -1,0 +1,337 @@
+// detector_eval: accuracy and speed of a detector model (core YoloDetector, as the pipe_detector
+// node runs it).
+//
+//   detector_eval --model M.onnx --data DIR/yolo [--split test] [--input 416x416]
+//       [--roi x,y,w,h] [--conf 0.01] [--max-per-class 0] [--cross-class-nms 0.7]
+//       [--labels box_end,pin_end]
+//       [--darknet-cfg C.cfg] [--threads 1] [--csv OUT.csv]
+//     mAP@0.5 per class (VOC all-point interpolated AP; a detection matches an unmatched ground
+//     truth box of its class with IoU >= 0.5, highest score first) over a YOLO dataset, e.g.
+//     images render_dataset rendered with held-out seeds. Also precision / recall at the node's
+//     operating point (confidence 0.25, one box per class) and the mean time per image.
+//   detector_eval --model M.onnx --timing 320x320,416x416,512x512,640x384 [--image I.jpg]
+//       [--repeat 20] [--threads 1]
+//     Inference time against input size (median / mean [ms] per frame, preprocessing + network +
+//     decoding), on one core by default.
+// Exit status 0; 1 on bad input; 2 when --min-ap is given and a class falls below it.
+#include <opencv2/imgcodecs.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+
+#include "drill_pipe_pose/core/detector/yolo_detector.hpp"
+#include "drill_pipe_pose/core/errors.hpp"
+
+using namespace drill_pipe_pose;
+using namespace drill_pipe_pose::detector;
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Options {
+  DetectorConfig det;
+  std::string data, split = "test", timing, image, csv;
+  int repeat = 20;
+  double min_ap = -1.0;
+};
+
+std::vector<std::string> splitList(const std::string& s, char sep = ',') {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, sep))
+    if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+void parseSize(const std::string& s, int* w, int* h) {
+  const auto v = splitList(s, 'x');
+  if (v.size() != 2) fail("detector_eval: size '", s, "': expected WIDTHxHEIGHT, e.g. 416x416");
+  *w = std::stoi(v[0]);
+  *h = std::stoi(v[1]);
+}
+
+void usage() {
+  std::cerr << "usage: detector_eval --model M.onnx (--data DIR [--split test] | --timing "
+               "320x320,416x416 [--image I.jpg] [--repeat N]) [--input WxH] [--roi x,y,w,h] "
+               "[--conf C] [--max-per-class K] [--cross-class-nms T] [--labels a,b] [--darknet-cfg "
+               "C.cfg] "
+               "[--threads N] [--csv OUT.csv] [--min-ap A]\n";
+}
+
+Options parseArgs(int argc, char** argv) {
+  Options o;
+  o.det.confidence_threshold = 0.01f;
+  o.det.max_boxes_per_class = 0;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto next = [&]() -> std::string {
+      if (i + 1 >= argc) fail("detector_eval: ", a, " needs a value");
+      return argv[++i];
+    };
+    if (a == "--model")
+      o.det.model = next();
+    else if (a == "--darknet-cfg")
+      o.det.darknet_cfg = next();
+    else if (a == "--data")
+      o.data = next();
+    else if (a == "--split")
+      o.split = next();
+    else if (a == "--input")
+      parseSize(next(), &o.det.input_width, &o.det.input_height);
+    else if (a == "--conf")
+      o.det.confidence_threshold = std::stof(next());
+    else if (a == "--max-per-class")
+      o.det.max_boxes_per_class = std::stoi(next());
+    else if (a == "--cross-class-nms")
+      o.det.cross_class_nms_threshold = std::stof(next());
+    else if (a == "--labels")
+      o.det.labels = splitList(next());
+    else if (a == "--threads")
+      o.det.num_threads = std::stoi(next());
+    else if (a == "--timing")
+      o.timing = next();
+    else if (a == "--image")
+      o.image = next();
+    else if (a == "--repeat")
+      o.repeat = std::stoi(next());
+    else if (a == "--csv")
+      o.csv = next();
+    else if (a == "--min-ap")
+      o.min_ap = std::stod(next());
+    else if (a == "--roi") {
+      const auto v = splitList(next());
+      if (v.size() != 4) fail("detector_eval: --roi expects x,y,width,height");
+      o.det.roi.x_offset = std::stoul(v[0]);
+      o.det.roi.y_offset = std::stoul(v[1]);
+      o.det.roi.width = std::stoul(v[2]);
+      o.det.roi.height = std::stoul(v[3]);
+    } else if (a == "-h" || a == "--help") {
+      usage();
+      std::exit(0);
+    } else {
+      usage();
+      fail("detector_eval: unknown argument '", a, "'");
+    }
+  }
+  if (o.det.model.empty()) {
+    usage();
+    fail("detector_eval: --model is required");
+  }
+  if (o.data.empty() && o.timing.empty()) {
+    usage();
+    fail("detector_eval: give --data (accuracy) or --timing (speed)");
+  }
+  return o;
+}
+
+struct GroundTruth {
+  int cls;
+  ScoredBox box;
+};
+
+std::vector<GroundTruth> readYoloLabels(const fs::path& path, int width, int height) {
+  std::vector<GroundTruth> out;
+  std::ifstream f(path);
+  int c;
+  float x, y, w, h;
+  while (f >> c >> x >> y >> w >> h) {
+    GroundTruth g;
+    g.cls = c;
+    g.box.x_min = (x - w / 2) * width;
+    g.box.x_max = (x + w / 2) * width;
+    g.box.y_min = (y - h / 2) * height;
+    g.box.y_max = (y + h / 2) * height;
+    out.push_back(g);
+  }
+  return out;
+}
+
+/// VOC all-point interpolated average precision.
+double averagePrecision(std::vector<std::pair<float, int>> scored, int n_gt) {
+  if (n_gt == 0) return std::nan("");
+  std::sort(scored.begin(), scored.end(), [](auto& a, auto& b) { return a.first > b.first; });
+  std::vector<double> rec, prec;
+  double tp = 0, fp = 0;
+  for (const auto& [s, t] : scored) {
+    (t ? tp : fp) += 1;
+    rec.push_back(tp / n_gt);
+    prec.push_back(tp / (tp + fp));
+  }
+  std::vector<double> mrec{0.0}, mpre{1.0};
+  mrec.insert(mrec.end(), rec.begin(), rec.end());
+  mpre.insert(mpre.end(), prec.begin(), prec.end());
+  mrec.push_back(1.0);
+  mpre.push_back(0.0);
+  for (int i = static_cast<int>(mpre.size()) - 2; i >= 0; --i)
+    mpre[i] = std::max(mpre[i], mpre[i + 1]);
+  double ap = 0;
+  for (size_t i = 1; i < mrec.size(); ++i) ap += (mrec[i] - mrec[i - 1]) * mpre[i];
+  return ap;
+}
+
+int evaluate(const Options& o) {
+  const fs::path img_dir = fs::path(o.data) / "images" / o.split;
+  const fs::path lab_dir = fs::path(o.data) / "labels" / o.split;
+  if (!fs::is_directory(img_dir))
+    fail("detector_eval: no image folder '", img_dir.string(), "' (a YOLO dataset: images/",
+         o.split, ", labels/", o.split, ")");
+  std::vector<fs::path> images;
+  for (const auto& e : fs::directory_iterator(img_dir)) {
+    const std::string ext = e.path().extension().string();
+    if (ext == ".jpg" || ext == ".png" || ext == ".jpeg") images.push_back(e.path());
+  }
+  std::sort(images.begin(), images.end());
+  if (images.empty()) fail("detector_eval: '", img_dir.string(), "' holds no images");
+  YoloDetector det(o.det);
+  const int nc = det.layout().num_classes;
+  std::vector<std::vector<std::pair<float, int>>> scored(nc);
+  std::vector<int> n_gt(nc, 0), op_tp(nc, 0), op_fp(nc, 0);
+  double total_ms = 0, net_ms = 0;
+  for (const fs::path& p : images) {
+    const cv::Mat img = cv::imread(p.string(), cv::IMREAD_COLOR);
+    if (img.empty()) fail("detector_eval: cannot read image '", p.string(), "'");
+    std::vector<GroundTruth> gts =
+        readYoloLabels(lab_dir / (p.stem().string() + ".txt"), img.cols, img.rows);
+    // Ground truth outside the roi cannot be detected: it does not count.
+    if (!o.det.roi.isFull()) {
+      const ImageRoi& r = o.det.roi;
+      gts.erase(std::remove_if(gts.begin(), gts.end(),
+                               [&](const GroundTruth& g) {
+                                 const float cx = (g.box.x_min + g.box.x_max) / 2;
+                                 const float cy = (g.box.y_min + g.box.y_max) / 2;
+                                 return cx < r.x_offset || cy < r.y_offset ||
+                                        cx > r.x_offset + r.width || cy > r.y_offset + r.height;
+                               }),
+                gts.end());
+    }
+    for (const GroundTruth& g : gts)
+      if (g.cls >= 0 && g.cls < nc) ++n_gt[g.cls];
+    const std::vector<ScoredBox> dets = det.detectRaw(img);
+    total_ms += det.lastTiming().total();
+    net_ms += det.lastTiming().inference_ms;
+    std::vector<bool> used(gts.size(), false);
+    // Operating point: confidence >= 0.25, best box per class.
+    std::vector<bool> op_seen(nc, false);
+    for (const ScoredBox& d : dets) {  // sorted by score
+      float best = 0.5f;
+      int bj = -1;
+      for (size_t j = 0; j < gts.size(); ++j) {
+        if (gts[j].cls != d.class_id || used[j]) continue;
+        const float v = iou(d, gts[j].box);
+        if (v >= best) {
+          best = v;
+          bj = static_cast<int>(j);
+        }
+      }
+      if (bj >= 0) used[bj] = true;
+      scored[d.class_id].push_back({d.score, bj >= 0 ? 1 : 0});
+      if (d.score >= 0.25f && !op_seen[d.class_id]) {
+        op_seen[d.class_id] = true;
+        (bj >= 0 ? op_tp : op_fp)[d.class_id]++;
+      }
+    }
+  }
+  std::printf("detector_eval: %zu images of %s (split %s), model %s, input %dx%d, roi %s\n",
+              images.size(), o.data.c_str(), o.split.c_str(), o.det.model.c_str(),
+              o.det.input_width, o.det.input_height,
+              o.det.roi.isFull()
+                  ? "whole image"
+                  : (std::to_string(o.det.roi.x_offset) + "," + std::to_string(o.det.roi.y_offset) +
+                     "," + std::to_string(o.det.roi.width) + "," + std::to_string(o.det.roi.height))
+                        .c_str());
+  int rc = 0;
+  double sum = 0;
+  std::ofstream csv;
+  if (!o.csv.empty()) {
+    csv.open(o.csv);
+    csv << "class,label,ground_truth,ap50,precision_at_0.25_top1,recall_at_0.25_top1\n";
+  }
+  for (int c = 0; c < nc; ++c) {
+    const double ap = averagePrecision(scored[c], n_gt[c]);
+    const std::string name = c < static_cast<int>(o.det.labels.size()) ? o.det.labels[c] : "?";
+    const double prec = op_tp[c] + op_fp[c] > 0 ? double(op_tp[c]) / (op_tp[c] + op_fp[c]) : 0.0;
+    const double rec = n_gt[c] > 0 ? double(op_tp[c]) / n_gt[c] : 0.0;
+    std::printf(
+        "  %-8s AP@0.5 %.3f  (%d ground-truth boxes; at confidence 0.25, best box per "
+        "class: precision %.3f, recall %.3f)\n",
+        name.c_str(), ap, n_gt[c], prec, rec);
+    if (csv)
+      csv << c << "," << name << "," << n_gt[c] << "," << ap << "," << prec << "," << rec << "\n";
+    sum += std::isnan(ap) ? 0 : ap;
+    if (o.min_ap >= 0 && !(ap >= o.min_ap)) rc = 2;
+  }
+  std::printf("  mAP@0.5 %.3f; mean time per image %.1f ms (network %.1f ms), %d thread(s)\n",
+              sum / nc, total_ms / images.size(), net_ms / images.size(), o.det.num_threads);
+  return rc;
+}
+
+int timing(const Options& o) {
+  cv::Mat img;
+  if (!o.image.empty()) {
+    img = cv::imread(o.image, cv::IMREAD_COLOR);
+    if (img.empty()) fail("detector_eval: cannot read image '", o.image, "'");
+  } else {
+    img = cv::Mat(540, 960, CV_8UC3);
+    cv::randu(img, cv::Scalar::all(0), cv::Scalar::all(255));
+  }
+  std::printf(
+      "detector_eval: inference time vs input size, model %s, %d thread(s), image %dx%d, "
+      "roi %s, %d runs each\n",
+      o.det.model.c_str(), o.det.num_threads, img.cols, img.rows,
+      o.det.roi.isFull() ? "whole image" : "set", o.repeat);
+  std::printf("  %-10s %10s %10s %10s %10s\n", "input", "median_ms", "mean_ms", "network_ms",
+              "pre+post");
+  std::ofstream csv;
+  if (!o.csv.empty()) {
+    csv.open(o.csv);
+    csv << "input_width,input_height,median_ms,mean_ms,network_ms\n";
+  }
+  for (const std::string& s : splitList(o.timing)) {
+    DetectorConfig c = o.det;
+    parseSize(s, &c.input_width, &c.input_height);
+    c.allow_upscale = true;
+    YoloDetector det(c);
+    det.detectRaw(img);  // warm-up
+    std::vector<double> t;
+    double net = 0, other = 0;
+    for (int i = 0; i < o.repeat; ++i) {
+      det.detectRaw(img);
+      t.push_back(det.lastTiming().total());
+      net += det.lastTiming().inference_ms;
+      other += det.lastTiming().preprocess_ms + det.lastTiming().postprocess_ms;
+    }
+    std::vector<double> sorted = t;
+    std::sort(sorted.begin(), sorted.end());
+    double mean = 0;
+    for (double v : t) mean += v;
+    mean /= t.size();
+    std::printf("  %-10s %10.1f %10.1f %10.1f %10.1f\n", s.c_str(), sorted[sorted.size() / 2], mean,
+                net / o.repeat, other / o.repeat);
+    if (csv)
+      csv << c.input_width << "," << c.input_height << "," << sorted[sorted.size() / 2] << ","
+          << mean << "," << net / o.repeat << "\n";
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    const Options o = parseArgs(argc, argv);
+    int rc = 0;
+    if (!o.data.empty()) rc = evaluate(o);
+    if (!o.timing.empty()) rc = std::max(rc, timing(o));
+    return rc;
+  } catch (const std::exception& e) {
+    std::cerr << "detector_eval: " << e.what() << "\n";
+    return 1;
+  }
+}

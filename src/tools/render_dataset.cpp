@@ -1,0 +1,445 @@
+// render_dataset: renders labelled colour images of a rig with the simulator and writes a YOLO
+// dataset and a Pascal VOC dataset (the labels are the exact visible silhouettes of the tool
+// joints: the simulated detector with every error rate at zero).
+//
+//   render_dataset --out DIR [--random N | --scene S.yaml ...] [--frames K] [--seed N]
+//       [--rig RIG.yaml] [--cameras cam1,cam3] [--profile kinect_v2_calibrated] [--split train]
+//       [--format both|yolo|voc] [--augment A] [--negatives 0.2] [--jpeg-quality 92]
+//       [--print-roi] [--quiet]
+//
+// --random N: N random scenarios (seeded by --seed and the scenario index): lighting (direction,
+//   ambient), paint (yellow, grey, bare dark steel, rust, colour variations), mud, room materials
+//   and clutter (background), both ends at random positions over the work zone (the thesis rig's
+//   distances and beyond), tilt 0-90 deg, hanging pin-ends, sometimes a whole horizontal pipe or
+//   a distractor; each scenario renders K poses (--frames) seen by every camera.
+// --scene S.yaml (repeatable): the given scenario files instead, at K times spread over 120 s
+//   (the moving / random-pose scenes change over that span). Use held-out --seed values for
+//   evaluation sets.
+// --augment A: A extra copies of each image with the thesis's augmentations (random translation,
+//   scale, horizontal mirror), boxes transformed and clipped.
+// --print-roi: prints, per camera, the colour-image rectangle of the scene's work zone (for the
+//   pipe_detector's ~roi parameter) and exits.
+//
+// Layout: DIR/yolo/{images,labels}/<split>/<name>.{jpg,txt} (class cx cy w h, normalised),
+// DIR/yolo/classes.txt, DIR/yolo/<split>.txt (image list); DIR/voc/JPEGImages/<name>.jpg,
+// DIR/voc/Annotations/<name>.xml, DIR/voc/ImageSets/Main/<split>.txt.
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <random>
+#include <sstream>
+
+#include "drill_pipe_pose/core/conventions.hpp"
+#include "drill_pipe_pose/core/errors.hpp"
+#include "drill_pipe_pose/core/rig_calibration.hpp"
+#include "drill_pipe_pose/sim/rig_simulator.hpp"
+
+#ifndef DRILL_PIPE_POSE_SOURCE_DIR
+#define DRILL_PIPE_POSE_SOURCE_DIR "."
+#endif
+
+using namespace drill_pipe_pose;
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Options {
+  std::string out, rig = std::string(DRILL_PIPE_POSE_SOURCE_DIR) + "/config/rigs/thesis_lab.yaml";
+  std::string sensors = std::string(DRILL_PIPE_POSE_SOURCE_DIR) + "/config/sensors";
+  std::vector<std::string> scenes, cameras;
+  int random = 0, frames = 4, augment = 0, jpeg_quality = 92;
+  uint32_t seed = 1;
+  std::string profile = "kinect_v2_calibrated", split = "train", format = "both";
+  double negatives = 0.2;
+  bool print_roi = false, quiet = false;
+};
+
+void usage() {
+  std::cerr << "usage: render_dataset --out DIR [--random N | --scene S.yaml ...] [--frames K] "
+               "[--seed N] [--rig RIG.yaml] [--cameras cam1,cam2] [--profile NAME] "
+               "[--split train|val|test] [--format both|yolo|voc] [--augment A] "
+               "[--negatives P] [--jpeg-quality Q] [--print-roi] [--quiet]\n";
+}
+
+std::vector<std::string> splitList(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, ','))
+    if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+Options parseArgs(int argc, char** argv) {
+  Options o;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto next = [&]() -> std::string {
+      if (i + 1 >= argc) fail("render_dataset: ", a, " needs a value");
+      return argv[++i];
+    };
+    if (a == "--out")
+      o.out = next();
+    else if (a == "--rig")
+      o.rig = next();
+    else if (a == "--sensors")
+      o.sensors = next();
+    else if (a == "--scene")
+      o.scenes.push_back(next());
+    else if (a == "--cameras")
+      o.cameras = splitList(next());
+    else if (a == "--random")
+      o.random = std::stoi(next());
+    else if (a == "--frames")
+      o.frames = std::stoi(next());
+    else if (a == "--augment")
+      o.augment = std::stoi(next());
+    else if (a == "--jpeg-quality")
+      o.jpeg_quality = std::stoi(next());
+    else if (a == "--seed")
+      o.seed = static_cast<uint32_t>(std::stoul(next()));
+    else if (a == "--profile")
+      o.profile = next();
+    else if (a == "--split")
+      o.split = next();
+    else if (a == "--format")
+      o.format = next();
+    else if (a == "--negatives")
+      o.negatives = std::stod(next());
+    else if (a == "--print-roi")
+      o.print_roi = true;
+    else if (a == "--quiet")
+      o.quiet = true;
+    else if (a == "-h" || a == "--help") {
+      usage();
+      std::exit(0);
+    } else {
+      usage();
+      fail("render_dataset: unknown argument '", a, "'");
+    }
+  }
+  if (o.out.empty() && !o.print_roi) {
+    usage();
+    fail("render_dataset: --out is required");
+  }
+  if (o.random <= 0 && o.scenes.empty()) o.random = 1;
+  if (o.frames < 1) fail("render_dataset: --frames must be >= 1");
+  if (o.format != "both" && o.format != "yolo" && o.format != "voc")
+    fail("render_dataset: --format '", o.format, "': expected both, yolo or voc");
+  return o;
+}
+
+/// A random scenario as scene-file YAML (the simulator's own schema).
+std::string randomScenario(std::mt19937& rng, int frames, uint32_t scenario_seed) {
+  std::uniform_real_distribution<double> U(0.0, 1.0);
+  auto uni = [&](double a, double b) { return a + (b - a) * U(rng); };
+  auto pick = [&](const std::vector<std::string>& v) {
+    return v[static_cast<size_t>(U(rng) * v.size()) % v.size()];
+  };
+  auto jitterBgr = [&](int b, int g, int r, double amount) {
+    std::ostringstream s;
+    auto j = [&](int c) {
+      return std::clamp(static_cast<int>(c * uni(1 - amount, 1 + amount)), 0, 255);
+    };
+    s << "[" << j(b) << ", " << j(g) << ", " << j(r) << "]";
+    return s.str();
+  };
+  std::ostringstream y;
+  y << "name: random_" << scenario_seed << "\n";
+  y << "work_zone: {min: [2.7, 4.0, 0.0], max: [6.7, 8.1, 3.0]}\n";
+  // Room and lighting.
+  y << "room: {size: [10.0, 10.0, 5.5], floor: floor_m, walls: wall_m}\n";
+  y << "light: {direction: [" << uni(-0.8, 0.8) << ", " << uni(-0.8, 0.8)
+    << ", -1], ambient: " << uni(0.15, 0.65) << "}\n";
+  y << "materials:\n";
+  const std::vector<std::array<int, 3>> floors = {{150, 152, 155}, {90, 95, 100},  {60, 70, 80},
+                                                  {170, 170, 160}, {110, 120, 95}, {40, 45, 50}};
+  const auto f = floors[static_cast<size_t>(U(rng) * floors.size()) % floors.size()];
+  y << "  floor_m: {reflectivity: 0.4, bgr: " << jitterBgr(f[0], f[1], f[2], 0.2) << "}\n";
+  const std::vector<std::array<int, 3>> walls = {
+      {205, 208, 210}, {160, 170, 180}, {120, 140, 100}, {180, 150, 120}, {90, 90, 90}};
+  const auto w = walls[static_cast<size_t>(U(rng) * walls.size()) % walls.size()];
+  y << "  wall_m: {reflectivity: 0.6, bgr: " << jitterBgr(w[0], w[1], w[2], 0.2) << "}\n";
+  // Paint of the tool joints: yellow (the thesis), grey, bare dark steel, rust, variations.
+  const std::vector<std::array<int, 3>> paints = {{20, 195, 230},  {20, 195, 230}, {30, 170, 215},
+                                                  {120, 120, 125}, {60, 62, 66},   {40, 70, 115},
+                                                  {25, 140, 200},  {80, 85, 90}};
+  for (int i = 0; i < 3; ++i) {
+    const auto p = paints[static_cast<size_t>(U(rng) * paints.size()) % paints.size()];
+    y << "  paint" << i << ": {reflectivity: " << uni(0.1, 0.65)
+      << ", bgr: " << jitterBgr(p[0], p[1], p[2], 0.15) << "}\n";
+  }
+  const std::vector<std::string> clutter_mats = {"barrel_blue",   "cardboard",    "hi_vis",
+                                                 "catwalk_steel", "black_rubber", "grey_paint",
+                                                 "concrete",      "rusty_steel"};
+  // Clutter (background objects) near the work zone.
+  const int n_clutter = static_cast<int>(uni(0, 7));
+  if (n_clutter > 0) y << "objects:\n";
+  for (int i = 0; i < n_clutter; ++i) {
+    const double x = uni(2.7, 6.7), yy = uni(4.0, 8.1), yaw = uni(0, 180);
+    if (U(rng) < 0.5) {
+      const double sx = uni(0.2, 1.2), sy = uni(0.2, 1.2), sz = uni(0.2, 1.5);
+      y << "  - {name: c" << i << ", type: box, size: [" << sx << ", " << sy << ", " << sz
+        << "], pose: {translation: [" << x << ", " << yy << ", " << sz / 2 << "], rpy_deg: [0, 0, "
+        << yaw << "]}, material: " << pick(clutter_mats) << "}\n";
+    } else {
+      y << "  - {name: c" << i << ", type: cylinder, radius: " << uni(0.08, 0.4)
+        << ", height: " << uni(0.3, 1.9) << ", pose: {translation: [" << x << ", " << yy
+        << ", 0.0], rpy_deg: [0, 0, 0]}, material: " << pick(clutter_mats) << "}\n";
+    }
+  }
+  // The tool joints: one box-end and one pin-end lab sample moving through random poses.
+  y << "pipes:\n";
+  const double cx = uni(3.9, 5.5), cy = uni(5.2, 6.9);
+  const bool mud = U(rng) < 0.6;
+  for (int e = 0; e < 2; ++e) {
+    const std::string end = e == 0 ? "box_end" : "pin_end";
+    const double tilt_max = U(rng) < 0.4 ? 20.0 : 90.0;
+    y << "  - name: " << end << "_sample\n    type: tool_joint\n    end: " << end
+      << "\n    pose: {translation: [4.7, 6.0, 0.5], rpy_deg: [0, 0, 0]}\n"
+      << "    material: paint" << (U(rng) < 0.7 ? 0 : e + 1)
+      << "\n    mud: " << (mud ? "true" : "false") << "\n    tube_length: " << uni(0.15, 1.5)
+      << "\n"
+      << "    motion:\n      random_poses: {count: " << frames
+      << ", interval_s: 1.0, seed: " << scenario_seed * 2 + e << ", centre: [" << cx << ", " << cy
+      << "], half_extent: [1.3, 1.3], tilt_deg: [0, " << tilt_max
+      << "], hanging_fraction: 0.3, clearance: [0.0, 1.6], min_separation: 0.8}\n";
+  }
+  // Sometimes a whole pipe lying (catwalk-like) or a second, distractor pipe.
+  if (U(rng) < 0.35) {
+    const double a = uni(0, 2 * M_PI);
+    y << "  - name: whole_pipe\n    type: pipe\n    length: " << uni(2.0, 5.0)
+      << "\n    pose: {translation: [" << uni(3.0, 6.4) << ", " << uni(4.3, 7.8) << ", "
+      << uni(0.084, 1.2) << "], z_axis: [" << std::cos(a) << ", " << std::sin(a) << ", "
+      << uni(-0.15, 0.15) << "]}\n    material: paint" << static_cast<int>(uni(0, 3)) << "\n";
+  }
+  return y.str();
+}
+
+struct Writer {
+  Options o;
+  fs::path yolo, voc;
+  std::ofstream yolo_list, voc_list;
+  size_t images = 0, boxes[kNumEnds] = {0, 0};
+  std::mt19937 aug_rng;
+
+  explicit Writer(const Options& opt) : o(opt), aug_rng(opt.seed * 7919u + 17u) {
+    if (o.format != "voc") {
+      yolo = fs::path(o.out) / "yolo";
+      fs::create_directories(yolo / "images" / o.split);
+      fs::create_directories(yolo / "labels" / o.split);
+      std::ofstream(yolo / "classes.txt") << "box_end\npin_end\n";
+      yolo_list.open(yolo / (o.split + ".txt"), std::ios::app);
+    }
+    if (o.format != "yolo") {
+      voc = fs::path(o.out) / "voc";
+      fs::create_directories(voc / "JPEGImages");
+      fs::create_directories(voc / "Annotations");
+      fs::create_directories(voc / "ImageSets" / "Main");
+      voc_list.open(voc / "ImageSets" / "Main" / (o.split + ".txt"), std::ios::app);
+    }
+  }
+
+  void write(const std::string& name, const cv::Mat& img, const std::vector<DetectionBox>& bs) {
+    const std::vector<int> params{cv::IMWRITE_JPEG_QUALITY, o.jpeg_quality};
+    if (!yolo.empty()) {
+      const fs::path ip = yolo / "images" / o.split / (name + ".jpg");
+      if (!cv::imwrite(ip.string(), img, params)) fail("render_dataset: cannot write ", ip);
+      std::ofstream l(yolo / "labels" / o.split / (name + ".txt"));
+      for (const DetectionBox& b : bs)
+        l << static_cast<int>(b.label) << " " << (b.x_min + b.x_max) / 2 / img.cols << " "
+          << (b.y_min + b.y_max) / 2 / img.rows << " " << (b.x_max - b.x_min) / img.cols << " "
+          << (b.y_max - b.y_min) / img.rows << "\n";
+      yolo_list << fs::absolute(ip).string() << "\n";
+    }
+    if (!voc.empty()) {
+      const fs::path ip = voc / "JPEGImages" / (name + ".jpg");
+      if (!yolo.empty())
+        fs::copy_file(yolo / "images" / o.split / (name + ".jpg"), ip,
+                      fs::copy_options::overwrite_existing);
+      else if (!cv::imwrite(ip.string(), img, params))
+        fail("render_dataset: cannot write ", ip);
+      std::ofstream x(voc / "Annotations" / (name + ".xml"));
+      x << "<annotation>\n  <folder>JPEGImages</folder>\n  <filename>" << name
+        << ".jpg</filename>\n  <source><database>drill_pipe_pose rig_simulator</database>"
+           "</source>\n  <size><width>"
+        << img.cols << "</width><height>" << img.rows
+        << "</height><depth>3</depth></size>\n  <segmented>0</segmented>\n";
+      for (const DetectionBox& b : bs)
+        x << "  <object>\n    <name>" << labelName(b.label)
+          << "</name>\n    <pose>Unspecified</pose>\n    <truncated>0</truncated>\n"
+             "    <difficult>0</difficult>\n    <bndbox><xmin>"
+          << std::lround(b.x_min) + 1 << "</xmin><ymin>" << std::lround(b.y_min) + 1
+          << "</ymin><xmax>" << std::lround(b.x_max) << "</xmax><ymax>" << std::lround(b.y_max)
+          << "</ymax></bndbox>\n  </object>\n";
+      x << "</annotation>\n";
+      voc_list << name << "\n";
+    }
+    ++images;
+    for (const DetectionBox& b : bs) ++boxes[static_cast<int>(b.label)];
+  }
+
+  /// The thesis's augmentations: translate, scale, mirror (boxes follow; clipped; boxes with
+  /// less than 40 % of their area left are dropped).
+  void writeAugmented(const std::string& name, const cv::Mat& img,
+                      const std::vector<DetectionBox>& bs) {
+    std::uniform_real_distribution<double> U(0.0, 1.0);
+    const double s = 0.7 + 0.6 * U(aug_rng);
+    const double tx = (U(aug_rng) - 0.5) * 0.4 * img.cols, ty = (U(aug_rng) - 0.5) * 0.4 * img.rows;
+    const bool mirror = U(aug_rng) < 0.5;
+    // x' = s (x - c) + c + t, then mirrored: x'' = W - x'.
+    const double cx = img.cols / 2.0, cy = img.rows / 2.0;
+    cv::Mat M = (cv::Mat_<double>(2, 3) << s, 0, (1 - s) * cx + tx, 0, s, (1 - s) * cy + ty);
+    if (mirror) {
+      M.at<double>(0, 0) = -s;
+      M.at<double>(0, 2) = img.cols - ((1 - s) * cx + tx);
+    }
+    cv::Mat out;
+    cv::warpAffine(img, out, M, img.size(), cv::INTER_LINEAR, cv::BORDER_CONSTANT,
+                   cv::Scalar(114, 114, 114));
+    std::vector<DetectionBox> ob;
+    for (DetectionBox b : bs) {
+      double x0 = M.at<double>(0, 0) * b.x_min + M.at<double>(0, 2);
+      double x1 = M.at<double>(0, 0) * b.x_max + M.at<double>(0, 2);
+      if (x0 > x1) std::swap(x0, x1);
+      const double y0 = s * b.y_min + M.at<double>(1, 2), y1 = s * b.y_max + M.at<double>(1, 2);
+      const double area = (x1 - x0) * (y1 - y0);
+      const double cx0 = std::clamp(x0, 0.0, double(img.cols)),
+                   cx1 = std::clamp(x1, 0.0, double(img.cols));
+      const double cy0 = std::clamp(y0, 0.0, double(img.rows)),
+                   cy1 = std::clamp(y1, 0.0, double(img.rows));
+      if (area <= 0 || (cx1 - cx0) * (cy1 - cy0) < 0.4 * area) continue;
+      b.x_min = static_cast<float>(cx0);
+      b.x_max = static_cast<float>(cx1);
+      b.y_min = static_cast<float>(cy0);
+      b.y_max = static_cast<float>(cy1);
+      ob.push_back(b);
+    }
+    write(name, out, ob);
+  }
+};
+
+void renderScenario(Writer& w, const RigCalibration& rig, const sim::SceneConfig& scene,
+                    const std::string& tag, uint32_t sim_seed, double t0, double dt,
+                    const Options& o, std::mt19937& rng) {
+  sim::SimulatorOptions opt;
+  opt.profile = o.profile;
+  opt.seed = sim_seed;
+  opt.color = true;
+  opt.simulated_detection = true;
+  opt.sensor_config_dir = o.sensors;
+  opt.stamp_origin_ns = 1000000000LL;
+  opt.detector.edge_jitter_px = 0.0;
+  opt.detector.miss_probability = 0.0;
+  opt.detector.swap_probability = 0.0;
+  opt.detector.duplicate_probability = 0.0;
+  opt.detector.false_positive_probability = 0.0;
+  sim::RigSimulator sim(rig, scene, opt);
+  std::uniform_real_distribution<double> U(0.0, 1.0);
+  for (int k = 0; k < o.frames; ++k) {
+    const double t = t0 + k * dt;
+    for (size_t c = 0; c < sim.numCameras(); ++c) {
+      const std::string& cam = sim.cameraName(c);
+      if (!o.cameras.empty() &&
+          std::find(o.cameras.begin(), o.cameras.end(), cam) == o.cameras.end())
+        continue;
+      sim::RigSimulator::Frame f = sim.render(c, t, static_cast<uint64_t>(k));
+      const std::vector<DetectionBox>& bs = f.sensor_frame.boxes;
+      if (bs.empty() && U(rng) >= o.negatives) continue;
+      const cv::Mat img(static_cast<int>(f.color_height), static_cast<int>(f.color_width), CV_8UC3,
+                        f.bgr.data());
+      char name[160];
+      std::snprintf(name, sizeof(name), "%s_f%03d_%s", tag.c_str(), k, cam.c_str());
+      w.write(name, img, bs);
+      for (int a = 0; a < o.augment; ++a)
+        w.writeAugmented(std::string(name) + "_aug" + std::to_string(a), img, bs);
+    }
+  }
+}
+
+void printRoi(const RigCalibration& rig, const std::string& scene_path, const Options& o) {
+  sim::SimulatorOptions opt;
+  opt.sensor_config_dir = o.sensors;
+  opt.simulated_detection = false;
+  const auto sim = sim::loadScenario(o.rig, scene_path, opt);
+  const sim::WorkZone& z = sim->workZone();
+  (void)rig;
+  for (size_t c = 0; c < sim->numCameras(); ++c) {
+    const PinholeCamera cam = PinholeCamera::fromCameraInfo(sim->colorInfo(c), "colour");
+    const Eigen::Isometry3d T_color_world = sim->trueT_world_link(c).inverse();
+    double u0 = 1e9, v0 = 1e9, u1 = -1e9, v1 = -1e9;
+    for (int i = 0; i < 8; ++i) {
+      const Eigen::Vector3d p((i & 1) ? z.max.x() : z.min.x(), (i & 2) ? z.max.y() : z.min.y(),
+                              (i & 4) ? z.max.z() : z.min.z());
+      Eigen::Vector2d uv;
+      if (!cam.project(T_color_world * p, &uv)) continue;
+      u0 = std::min(u0, uv.x());
+      v0 = std::min(v0, uv.y());
+      u1 = std::max(u1, uv.x());
+      v1 = std::max(v1, uv.y());
+    }
+    const int x = std::clamp(static_cast<int>(std::floor(u0)), 0, int(cam.imageWidth()) - 1);
+    const int y = std::clamp(static_cast<int>(std::floor(v0)), 0, int(cam.imageHeight()) - 1);
+    const int x1 = std::clamp(static_cast<int>(std::ceil(u1)), x + 1, int(cam.imageWidth()));
+    const int y1 = std::clamp(static_cast<int>(std::ceil(v1)), y + 1, int(cam.imageHeight()));
+    std::printf(
+        "%s: roi [%d, %d, %d, %d]  (x, y, width, height of the work zone in the %ux%u "
+        "colour image)\n",
+        sim->cameraName(c).c_str(), x, y, x1 - x, y1 - y, cam.imageWidth(), cam.imageHeight());
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    const Options o = parseArgs(argc, argv);
+    const RigCalibration rig = loadRigCalibration(o.rig);
+    if (o.print_roi) {
+      for (const std::string& s :
+           o.scenes.empty() ? std::vector<std::string>{std::string(DRILL_PIPE_POSE_SOURCE_DIR) +
+                                                       "/config/scenes/thesis_vertical.yaml"}
+                            : o.scenes)
+        printRoi(rig, s, o);
+      return 0;
+    }
+    Writer w(o);
+    std::mt19937 rng(o.seed);
+    const auto start = std::chrono::steady_clock::now();
+    const size_t total = o.scenes.empty() ? static_cast<size_t>(o.random) : o.scenes.size();
+    for (size_t i = 0; i < total; ++i) {
+      if (o.scenes.empty()) {
+        const uint32_t sseed = o.seed * 100000u + static_cast<uint32_t>(i);
+        const std::string yaml = randomScenario(rng, o.frames, sseed);
+        const sim::SceneConfig scene =
+            sim::parseSceneConfig(yaml, "random scenario " + std::to_string(sseed));
+        char tag[64];
+        std::snprintf(tag, sizeof(tag), "s%u_r%05zu", o.seed, i);
+        renderScenario(w, rig, scene, tag, sseed, 0.5, 1.0, o, rng);
+      } else {
+        const sim::SceneConfig scene = sim::loadSceneConfig(o.scenes[i]);
+        char tag[128];
+        std::snprintf(tag, sizeof(tag), "s%u_%s", o.seed, scene.name.c_str());
+        renderScenario(w, rig, scene, tag, o.seed, 0.25, 120.0 / o.frames, o, rng);
+      }
+      if (!o.quiet) {
+        const double el =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        std::fprintf(stderr, "\rscenario %zu / %zu, %zu images, %zu box_end, %zu pin_end, %.0f s",
+                     i + 1, total, w.images, w.boxes[0], w.boxes[1], el);
+      }
+    }
+    if (!o.quiet) std::fprintf(stderr, "\n");
+    std::printf("render_dataset: %zu images (%zu box_end, %zu pin_end boxes) in %s\n", w.images,
+                w.boxes[0], w.boxes[1], o.out.c_str());
+  } catch (const std::exception& e) {
+    std::cerr << "render_dataset: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}
