@@ -18,6 +18,7 @@ def main(path):
     if not rows:
         print("no results")
         return 1
+    print("(sd x/y/z: spread of the estimated positions; for moving scenes it includes the motion)")
     hdr = (f"{'scenario':24s} {'method':16s} {'end':8s} {'valid':>9s} {'mean mm':>8s} "
            f"{'sd x/y/z mm':>16s} {'axis deg':>8s} {'<=1cm1deg':>9s} {'<=2cm2deg':>9s} "
            f"{'in 3sig':>7s} {'med ms':>7s} {'p95 ms':>7s} {'p99 ms':>7s} {'RSS MB':>7s}")
@@ -33,7 +34,9 @@ def main(path):
     # Speed ratio: same scenario, same run.
     med = {}
     for r in rows:
-        med.setdefault(r["label"], {})[r["method"]] = float(r["median_ms"])
+        # A method that produced no estimate at all says nothing about its speed.
+        if int(r["estimates"]) > 0:
+            med.setdefault(r["label"], {})[r["method"]] = float(r["median_ms"])
     print()
     for label, m in med.items():
         if "ours" in m and "thesis_baseline" in m and m["ours"] > 0:
