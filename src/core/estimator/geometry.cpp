@@ -578,52 +578,6 @@ ProfileFitResult fitProfile(const std::vector<Eigen::Vector3f>& points,
   return hyp[1];
 }
 
-double freeSpaceViolation(const std::vector<OrientedPoint>& samples,
-                          const Eigen::Isometry3d& T_world_end,
-                          const std::vector<CycleCamera>& cameras, double margin, size_t* judged) {
-  size_t viol = 0, support = 0;
-  for (const CycleCamera& cam : cameras) {
-    const Eigen::Isometry3d T_depth_end = cam.T_world_depth.inverse() * T_world_end;
-    const Eigen::Matrix3f R = T_depth_end.linear().cast<float>();
-    const Eigen::Vector3f t = T_depth_end.translation().cast<float>();
-    const float fx = cam.depth.fx(), fy = cam.depth.fy();
-    const float cx = cam.depth.cx() - cam.depth.offsetX(),
-                cy = cam.depth.cy() - cam.depth.offsetY();
-    const int W = cam.image.width, H = cam.image.height;
-    for (const OrientedPoint& s : samples) {
-      const Eigen::Vector3f p = R * s.p + t;
-      if (!(p.z() > 0.1f)) continue;
-      if ((R * s.n).dot(p) >= 0.0f) continue;  // faces away from the camera
-      const int u = static_cast<int>(std::floor(fx * p.x() / p.z() + cx + 0.5f));
-      const int v = static_cast<int>(std::floor(fy * p.y() / p.z() + cy + 0.5f));
-      if (u < 0 || v < 0 || u >= W || v >= H) continue;
-      // Seen through only when the whole 3x3 neighbourhood lies behind the sample: a one-pixel
-      // dead zone, so that silhouette pixels (partly on the object) never count, and free space
-      // guards against gross errors (axis direction, label, shifts of a pixel or more) while the
-      // profile cost does the fine positioning. Occluded samples count as judged (hiding a
-      // model below the floor or behind clutter must not look better).
-      int valid = 0, behind = 0;
-      for (int dv = -1; dv <= 1; ++dv)
-        for (int du = -1; du <= 1; ++du) {
-          const int uu = u + du, vv = v + dv;
-          if (uu < 0 || vv < 0 || uu >= W || vv >= H) continue;
-          const float zm = cam.image.depthAt(uu, vv);
-          if (!(zm == zm)) continue;
-          ++valid;
-          if (zm > p.z() + margin) ++behind;
-        }
-      if (valid == 0) continue;
-      if (behind == valid) {
-        ++viol;
-      } else {
-        ++support;  // consistent or occluded
-      }
-    }
-  }
-  if (judged) *judged = viol + support;
-  return viol + support > 0 ? static_cast<double>(viol) / (viol + support) : 0.0;
-}
-
 size_t seenThroughPixels(const std::vector<OrientedPoint>& samples,
                          const Eigen::Isometry3d& T_world_end,
                          const std::vector<CycleCamera>& cameras, double margin,

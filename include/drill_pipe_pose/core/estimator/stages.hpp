@@ -163,15 +163,6 @@ std::array<ProfileFitResult, 2> fitProfileHypotheses(const std::vector<Eigen::Ve
                                                      const EstimatorConfig::ProfileFit& config,
                                                      const ProfileModel* search_model = nullptr);
 
-/// Free-space check of a model pose: the fraction of the model's camera-facing surface samples
-/// (end frame, with outward normals) at T_world_end that fall on depth pixels measured more than
-/// `margin` [m] BEHIND them (the camera saw through where the model claims a surface), among the
-/// samples whose pixel is within +-margin or behind. `judged` receives that count.
-double freeSpaceViolation(const std::vector<OrientedPoint>& samples,
-                          const Eigen::Isometry3d& T_world_end,
-                          const std::vector<CycleCamera>& cameras, double margin,
-                          size_t* judged = nullptr);
-
 /// Symmetric free-space evidence of a model pose: the number of distinct depth pixels (summed
 /// over the cameras) on which a camera-facing model surface sample (end frame, outward normals)
 /// at T_world_end lands while the camera measured more than `margin` [m] behind it in the whole
