@@ -3,7 +3,9 @@
 //
 //   rosrun drill_pipe_pose bench_estimator BAG [--method ours|thesis_baseline] [--max-cycles N]
 //       [--config estimator.yaml-like params are not read here: defaults + --work-zone]
-//       [--csv errors.csv] [--label NAME]
+//       [--csv errors.csv] [--label NAME] [--skip-camera CAM]
+//
+// --skip-camera leaves one camera's frames out (a dead camera). Invalid ends are counted by reason.
 //
 // Cycles are formed exactly as the node forms them (FrameSynchronizer), with each frame arriving
 // 10 ms after its capture stamp. TF comes from the bag's /tf_static and /tf.
@@ -16,6 +18,7 @@
 #include <tf2_eigen/tf2_eigen.h>
 #include <tf2_msgs/TFMessage.h>
 
+#include <array>
 #include <chrono>
 #include <fstream>
 #include <iomanip>
@@ -35,17 +38,17 @@ namespace {
 
 void usage() {
   std::cerr << "usage: bench_estimator BAG [--method ours|thesis_baseline] [--max-cycles N] "
-               "[--work-zone x0 y0 z0 x1 y1 z1] [--csv FILE] [--label NAME]\n";
+               "[--work-zone x0 y0 z0 x1 y1 z1] [--csv FILE] [--label NAME] [--skip-camera CAM]\n";
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string bag_path, csv_path, label, method = "ours";
+  std::string bag_path, csv_path, label, method = "ours", skip_camera;
   size_t max_cycles = 0;
   EstimatorConfig cfg;
-  cfg.work_zone.min = Eigen::Vector3d(2.5, 3.0, -0.2);
-  cfg.work_zone.max = Eigen::Vector3d(7.5, 9.0, 3.5);
+  cfg.work_zone.min = Eigen::Vector3d(2.7, 4.0, 0.0);  // config/estimator_thesis_lab.yaml
+  cfg.work_zone.max = Eigen::Vector3d(6.7, 8.1, 3.0);
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto next = [&]() -> std::string {
@@ -63,6 +66,8 @@ int main(int argc, char** argv) {
       csv_path = next();
     else if (a == "--label")
       label = next();
+    else if (a == "--skip-camera")
+      skip_camera = next();
     else if (a == "--work-zone") {
       for (int k = 0; k < 3; ++k) cfg.work_zone.min[k] = std::stod(next());
       for (int k = 0; k < 3; ++k) cfg.work_zone.max[k] = std::stod(next());
@@ -95,7 +100,7 @@ int main(int argc, char** argv) {
         if (auto msg = m.instantiate<tf2_msgs::TFMessage>())
           for (const auto& t : msg->transforms) tf.setTransform(t, "bag", topic == "/tf_static");
       } else if (auto sf = m.instantiate<SensorFrame>()) {
-        cameras.insert(sf->camera);
+        if (sf->camera != skip_camera) cameras.insert(sf->camera);
       } else {
         for (EndLabel e : {EndLabel::kBoxEnd, EndLabel::kPinEnd})
           if (topic == conventions::groundTruthTopic(e))
@@ -114,7 +119,9 @@ int main(int argc, char** argv) {
                            FrameSyncConfig());
     std::map<uint64_t, SensorFrameConstPtr> store;
     std::vector<double> times_ms;
+    std::array<std::vector<double>, 4> stage_ms;  // cut-out, fusion, segmentation, registration
     std::vector<EstimateSample> estimates;
+    std::map<std::string, size_t> reasons;  // why an end was invalid, counted
     uint64_t next_id = 0;
     size_t cycles = 0, bad = 0;
     auto run = [&](const FrameSynchronizer::Cycle& c) {
@@ -141,6 +148,10 @@ int main(int argc, char** argv) {
       const double ms =
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
       times_ms.push_back(ms);
+      stage_ms[0].push_back(r.timing.cutout_ms);
+      stage_ms[1].push_back(r.timing.fusion_ms);
+      stage_ms[2].push_back(r.timing.segmentation_ms);
+      stage_ms[3].push_back(r.timing.registration_ms);
       for (int e = 0; e < kNumEnds; ++e) {
         EstimateSample s;
         s.stamp_ns = c.stamp_ns;
@@ -149,13 +160,18 @@ int main(int argc, char** argv) {
         s.T_world_end = r.ends[e].T_world_end;
         s.covariance = r.ends[e].covariance;
         estimates.push_back(s);
+        if (!r.ends[e].valid) {
+          // Reasons without their numbers, counted.
+          std::string why = r.ends[e].reason.substr(0, r.ends[e].reason.find_first_of("0123456789"));
+          ++reasons[std::string(labelName(s.label)) + ": " + why];
+        }
       }
       ++cycles;
     };
     int64_t first_stamp = 0, last_stamp = 0;
     for (const rosbag::MessageInstance& m : rosbag::View(bag)) {
       auto sf = m.instantiate<SensorFrame>();
-      if (!sf) continue;
+      if (!sf || sf->camera == skip_camera) continue;
       const int64_t stamp = toNs(sf->header.stamp);
       if (!first_stamp) first_stamp = stamp;
       last_stamp = std::max(last_stamp, stamp);
@@ -186,7 +202,11 @@ int main(int argc, char** argv) {
     std::cout << "time per cycle [ms]: median " << percentile(times_ms, 0.5) << ", p95 "
               << percentile(times_ms, 0.95) << ", p99 " << percentile(times_ms, 0.99) << ", max "
               << percentile(times_ms, 1.0) << " | peak RSS " << ru.ru_maxrss / 1024.0 << " MB\n";
+    std::cout << "stage medians [ms]: cut-out " << percentile(stage_ms[0], 0.5) << ", fusion "
+              << percentile(stage_ms[1], 0.5) << ", segmentation " << percentile(stage_ms[2], 0.5)
+              << ", registration " << percentile(stage_ms[3], 0.5) << "\n";
     printEvaluation(evals, std::cout);
+    for (const auto& [why, n] : reasons) std::cout << "invalid " << n << "x: " << why << "\n";
     // One machine-readable line per end for scripts/bench.
     for (const auto& ev : evals) {
       if (!ev.present) continue;

@@ -376,15 +376,101 @@ float ProfileModel::coarseDistance(double z, double r) const {
   return d + static_cast<float>(dz + dr);
 }
 
+bool ProfileModel::rayHit(const Eigen::Vector3d& q, const Eigen::Vector3d& d, double s_min,
+                          double* s_out, Eigen::Vector2d* zr, Eigen::Vector2d* normal) const {
+  // Each edge is a surface of revolution: an annulus (constant z), a cylinder or a cone
+  // r = r_a + k (z - z_a). With x(s) = q + s d: x^2 + y^2 = r(z(s))^2, a quadratic in s.
+  const double qq = q.x() * q.x() + q.y() * q.y(), qd = q.x() * d.x() + q.y() * d.y();
+  const double dd = d.x() * d.x() + d.y() * d.y();
+  double best = std::numeric_limits<double>::infinity();
+  const Edge* hit = nullptr;
+  for (const Edge& e : edges_) {
+    const double za = e.a.x(), ra = e.a.y(), zb = e.b.x(), rb = e.b.y();
+    const double z_lo = std::min(za, zb), z_hi = std::max(za, zb);
+    if (std::abs(zb - za) < 1e-9) {
+      if (std::abs(d.z()) < 1e-12) continue;
+      const double s = (za - q.z()) / d.z();
+      if (!(s > s_min && s < best)) continue;
+      const double r2 = qq + 2 * s * qd + s * s * dd;
+      const double r_lo = std::min(ra, rb), r_hi = std::max(ra, rb);
+      if (r2 >= r_lo * r_lo && r2 <= r_hi * r_hi) best = s, hit = &e;
+      continue;
+    }
+    const double k = (rb - ra) / (zb - za);
+    const double w0 = ra + k * (q.z() - za), w1 = k * d.z();  // r(s) = w0 + w1 s
+    const double A = dd - w1 * w1, B = 2 * (qd - w0 * w1), C = qq - w0 * w0;
+    double roots[2];
+    int n = 0;
+    if (std::abs(A) < 1e-12) {
+      if (std::abs(B) > 1e-12) roots[n++] = -C / B;
+    } else {
+      const double disc = B * B - 4 * A * C;
+      if (disc < 0) continue;
+      const double sq = std::sqrt(disc);
+      roots[n++] = (-B - sq) / (2 * A);
+      roots[n++] = (-B + sq) / (2 * A);
+    }
+    for (int i = 0; i < n; ++i) {
+      const double s = roots[i];
+      if (!(s > s_min && s < best)) continue;
+      const double zs = q.z() + s * d.z();
+      if (zs < z_lo || zs > z_hi || w0 + w1 * s < 0) continue;
+      best = s, hit = &e;
+    }
+  }
+  if (!hit) return false;
+  *s_out = best;
+  const Eigen::Vector3d x = q + best * d;
+  const double r = std::hypot(x.x(), x.y());
+  *zr = Eigen::Vector2d(x.z(), r);
+  const Eigen::Vector2d ab = (hit->b - hit->a).normalized();
+  Eigen::Vector2d n(ab.y(), -ab.x());
+  // Toward the camera: the ray's (z, r) direction at the hit is (d.z, radial part of d).
+  const double dr = r > 1e-12 ? (x.x() * d.x() + x.y() * d.y()) / r : 0.0;
+  if (n.x() * d.z() + n.y() * dr > 0) n = -n;
+  *normal = n;
+  return true;
+}
+
+double profileResidual(const ProfileModel& model, const Eigen::Vector3d& p,
+                       const Eigen::Vector3d& origin, const Eigen::Vector3d& z,
+                       const Eigen::Vector3d& e1, const Eigen::Vector3d& e2,
+                       const Eigen::Vector3f* eye, Eigen::Vector2d* grad, bool* ray_hit) {
+  if (ray_hit) *ray_hit = false;
+  const Eigen::Vector3d q = p - origin;
+  const double zc = q.dot(z), rc = (q - zc * z).norm();
+  if (eye) {
+    const Eigen::Vector3d ray = p - eye->cast<double>();
+    const double range = ray.norm();
+    if (range > 0.1) {
+      const Eigen::Vector3d dw = ray / range;
+      const Eigen::Vector3d qe(q.dot(e1), q.dot(e2), zc), de(dw.dot(e1), dw.dot(e2), dw.dot(z));
+      double s;
+      Eigen::Vector2d zr, n;
+      if (model.rayHit(qe, de, -(range - 0.05), &s, &zr, &n)) {
+        if (grad) *grad = n;
+        if (ray_hit) *ray_hit = true;
+        // Well behind the visible surface (the model hides the point): the distance along the
+        // ray; otherwise the signed distance to the tangent plane at the hit.
+        if (s < -0.05) return s;
+        return n.dot(Eigen::Vector2d(zc, rc) - zr);
+      }
+    }
+  }
+  return model.distance(zc, rc, grad);
+}
+
 double profileCost(const std::vector<Eigen::Vector3f>& points, const ProfileModel& model,
-                   const Eigen::Vector3d& origin, const Eigen::Vector3d& z, double truncation) {
+                   const Eigen::Vector3d& origin, const Eigen::Vector3d& z, double truncation,
+                   const std::vector<Eigen::Vector3f>* eyes) {
   if (points.empty()) return 0.0;
   double cost = 0;
   const double T2 = truncation * truncation;
-  for (const auto& pf : points) {
-    const Eigen::Vector3d q = pf.cast<double>() - origin;
-    const double zc = q.dot(z), rc = (q - zc * z).norm();
-    const double d = model.distance(zc, rc);
+  Eigen::Vector3d e1, e2;
+  orthoBasis(z, &e1, &e2);
+  for (size_t i = 0; i < points.size(); ++i) {
+    const double d = profileResidual(model, points[i].cast<double>(), origin, z, e1, e2,
+                                     eyes ? &(*eyes)[i] : nullptr);
     cost += std::min(d * d, T2);
   }
   return cost / points.size();
@@ -439,7 +525,7 @@ ProfileFitResult refineProfile(const std::vector<Eigen::Vector3f>& points,
                                const std::vector<float>& sigmas, const Eigen::Vector3d& origin,
                                const Eigen::Vector3d& z_axis, const ProfileModel& model,
                                const EstimatorConfig::ProfileFit& config, int iterations,
-                               bool lock_axial) {
+                               bool lock_axial, const std::vector<Eigen::Vector3f>* eyes) {
   ProfileFitResult res;
   res.label = model.label();
   if (points.size() < 10 || sigmas.size() != points.size()) return res;
@@ -470,8 +556,14 @@ ProfileFitResult refineProfile(const std::vector<Eigen::Vector3f>& points,
       const double rc = qp.norm();
       if (rc < 1e-9) continue;
       Eigen::Vector2d gr;
-      const double d = model.distance(zc, rc, &gr);
+      bool hit = false;
+      const double e = profileResidual(model, pts[i], o, z, e1, e2, eyes ? &(*eyes)[i] : nullptr,
+                                       &gr, &hit);
+      const double d = std::abs(e);
       if (d > T) continue;
+      // A ray that misses the model: a silhouette pixel (lateral noise, mixed pixels) whose
+      // closest model point is not what it measured; it does not steer the fit.
+      if (eyes && !hit) continue;
       const double sigma = sigmas[i];
       const double k = config.huber * sigma;
       const double w = (d <= k ? 1.0 : k / d) / (sigma * sigma);
@@ -480,7 +572,6 @@ ProfileFitResult refineProfile(const std::vector<Eigen::Vector3f>& points,
       J << -gr.y() * u.dot(e1), -gr.y() * u.dot(e2), -gr.x(),
           gr.x() * q.dot(e1) - gr.y() * zc * u.dot(e1),
           gr.x() * q.dot(e2) - gr.y() * zc * u.dot(e2);
-      const double e = d;
       // No pull along the axis from the untrusted part.
       if (!axial_info) J(2) = 0.0;
       H += w * J * J.transpose();
@@ -512,10 +603,11 @@ ProfileFitResult refineProfile(const std::vector<Eigen::Vector3f>& points,
   res.inlier_mask.assign(points.size(), 0);
   double cost = 0, ss = 0;
   size_t inl = 0;
+  Eigen::Vector3d b1, b2;
+  orthoBasis(z, &b1, &b2);
   for (size_t i = 0; i < pts.size(); ++i) {
-    const Eigen::Vector3d q = pts[i] - o;
-    const double zc = q.dot(z), rc = (q - zc * z).norm();
-    const double d = model.distance(zc, rc);
+    const double d =
+        std::abs(profileResidual(model, pts[i], o, z, b1, b2, eyes ? &(*eyes)[i] : nullptr));
     cost += std::min(d * d, T2);
     const double gate = std::min(T, std::max(0.01, 3.0 * sigmas[i]));
     if (d < gate) {
@@ -546,7 +638,8 @@ std::array<ProfileFitResult, 2> fitProfileHypotheses(const std::vector<Eigen::Ve
                                                      const AxisLine& axis,
                                                      const ProfileModel& model,
                                                      const EstimatorConfig::ProfileFit& config,
-                                                     const ProfileModel* search_model) {
+                                                     const ProfileModel* search_model,
+                                                     const std::vector<Eigen::Vector3f>* eyes) {
   std::array<ProfileFitResult, 2> hyp;
   const ProfileModel& sm = search_model ? *search_model : model;
   hyp[0].label = hyp[1].label = model.label();
@@ -565,7 +658,8 @@ std::array<ProfileFitResult, 2> fitProfileHypotheses(const std::vector<Eigen::Ve
     double c = 0;
     const double s = axialSearch(ts, rs, sign, sm, config, &c);
     const Eigen::Vector3d z = sign * d0;
-    hyp[k] = refineProfile(points, sigmas, axis.point + s * z, z, model, config, config.iterations);
+    hyp[k] = refineProfile(points, sigmas, axis.point + s * z, z, model, config, config.iterations,
+                           false, eyes);
   }
   return hyp;
 }
@@ -595,7 +689,10 @@ size_t seenThroughPixels(const std::vector<OrientedPoint>& samples,
     const float cx = cam.depth.cx() - cam.depth.offsetX(),
                 cy = cam.depth.cy() - cam.depth.offsetY();
     const int W = cam.image.width, H = cam.image.height;
+    // The camera's centre in the end frame: back faces are skipped before projecting.
+    const Eigen::Vector3f eye_end = -(R.transpose() * t);
     for (const OrientedPoint& s : samples) {
+      if (s.n.dot(eye_end - s.p) <= 0.0f) continue;  // faces away from the camera
       const Eigen::Vector3f p = R * s.p + t;
       if (!(p.z() > 0.1f)) continue;
       const float range = p.norm();
@@ -605,10 +702,13 @@ size_t seenThroughPixels(const std::vector<OrientedPoint>& samples,
       const int v = static_cast<int>(std::floor(fy * p.y() / p.z() + cy + 0.5f));
       if (u < 0 || v < 0 || u >= W || v >= H) continue;
       const uint32_t key = static_cast<uint32_t>(v) * W + u;
-      pred.push_back(key);
+      if (predicted) pred.push_back(key);
       // Grazing samples are not judged: their depth noise is huge and the silhouette's mixed
       // pixels show the background.
       if (cos_inc < min_cos_incidence) continue;
+      // Most samples of a right pose are not seen through: the centre pixel decides cheaply.
+      const float zc = cam.image.depthAt(u, v);
+      if (zc == zc && zc <= p.z() + static_cast<float>(margin)) continue;
       // Margin: at least `margin`, and 3 sigma of the depth noise at this range and incidence
       // (Fankhauser et al. 2015: + 0.1 z^1.5 theta^2 / (pi/2 - theta)^2 [mm]).
       const float theta = std::acos(std::min(1.0f, cos_inc));

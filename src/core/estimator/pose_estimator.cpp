@@ -29,6 +29,7 @@ struct Candidate {
   std::string reason;
   std::vector<Eigen::Vector3f> pts;
   std::vector<uint16_t> cams;
+  std::vector<Eigen::Vector3f> eyes;  ///< world position of the camera of each point
   double direction_margin = 0.0;  ///< score of the flipped axis direction minus the winner's
 };
 
@@ -177,6 +178,7 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
       cd.pts.push_back(carved[l][i].p_world);
       sig.push_back(carved[l][i].sigma);
       cd.cams.push_back(carved[l][i].camera);
+      cd.eyes.push_back(cams[carved[l][i].camera].T_world_depth.translation().cast<float>());
     }
     // A floor or catwalk around the joint is not part of it: left out of the axis fit (the
     // profile registration and the decision judge every point, with the same cost for all).
@@ -204,10 +206,11 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
     // same points and cameras judge every hypothesis (2 models x 2 axis directions), so nothing
     // is gained by hiding a model below a floor or outside the views.
     const bool use_fs = fsc.enabled && fsc.decide_hypotheses;
-    auto poseScore = [&](int m, const std::vector<Eigen::Vector3f>& P, double n_scale,
+    auto poseScore = [&](int m, const std::vector<Eigen::Vector3f>& P,
+                         const std::vector<Eigen::Vector3f>* E, double n_scale,
                          const Eigen::Vector3d& o, const Eigen::Vector3d& z) {
-      double c =
-          profileCost(P, impl_->models[m], o, z, config_.profile_fit.truncation) / T2 * n_scale;
+      double c = profileCost(P, impl_->models[m], o, z, config_.profile_fit.truncation, E) / T2 *
+                 n_scale;
       if (use_fs)
         c += fsc.pixel_weight * static_cast<double>(seenThroughPixels(
                                     impl_->fs_samples[m], canonicalPose(o, z), cams, fsc.margin,
@@ -215,20 +218,30 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
       return c;
     };
     // Scan of the position along the axis (origin + delta z) minimising poseScore: a coarse pass
-    // over +-range at `step`, then +-step at step / 2 (or finer when `fine` > 0).
-    auto axialScan = [&](int m, const std::vector<Eigen::Vector3f>& P, double n_scale,
-                         ProfileFitResult* f, double range, double step, double fine) {
-      double best_d = 0, best = poseScore(m, P, n_scale, f->origin, f->z);
+    // over +-range at `step`, then +-step at step / 2 (or finer when `fine` > 0). With
+    // `coarse_points_only` the coarse pass ranks positions by the points' cost alone and the
+    // seen-through pixels are counted in the fine pass only (a quarter of the projections).
+    auto axialScan = [&](int m, const std::vector<Eigen::Vector3f>& P,
+                         const std::vector<Eigen::Vector3f>* E, double n_scale,
+                         ProfileFitResult* f, double range, double step, double fine,
+                         bool coarse_points_only) {
+      auto coarseScore = [&](const Eigen::Vector3d& o) {
+        return coarse_points_only ? profileCost(P, impl_->models[m], o, f->z,
+                                                config_.profile_fit.truncation, E)
+                                  : poseScore(m, P, E, n_scale, o, f->z);
+      };
+      double best_d = 0, best = coarseScore(f->origin);
       for (double d = -range; d <= range + 1e-9; d += step) {
         if (std::abs(d) < 1e-9) continue;
-        const double c = poseScore(m, P, n_scale, f->origin + d * f->z, f->z);
+        const double c = coarseScore(f->origin + d * f->z);
         if (c < best) best = c, best_d = d;
       }
       const double fs = fine > 0 ? fine : step / 2;
       const double d0 = best_d;
+      if (coarse_points_only) best = poseScore(m, P, E, n_scale, f->origin + d0 * f->z, f->z);
       for (double d = d0 - step + fs; d < d0 + step - 1e-9; d += fs) {
         if (std::abs(d - d0) < 1e-9) continue;
-        const double c = poseScore(m, P, n_scale, f->origin + d * f->z, f->z);
+        const double c = poseScore(m, P, E, n_scale, f->origin + d * f->z, f->z);
         if (c < best) best = c, best_d = d;
       }
       f->origin += best_d * f->z;
@@ -254,9 +267,9 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
       for (int k = 0; k < 2; ++k)
         if (hyp[k].ok)
           c[k] = fsc.enabled && fsc.axial_scan
-                     ? axialScan(m, scan_pts, n_scale, &hyp[k], fsc.axial_range, fsc.decision_step,
-                                 0.0)
-                     : poseScore(m, scan_pts, n_scale, hyp[k].origin, hyp[k].z);
+                     ? axialScan(m, scan_pts, nullptr, n_scale, &hyp[k], fsc.axial_range,
+                                 fsc.decision_step, 0.0, true)
+                     : poseScore(m, scan_pts, nullptr, n_scale, hyp[k].origin, hyp[k].z);
       const int k = c[0] <= c[1] ? 0 : 1;
       fits[m] = hyp[k];
       cost[m] = c[k];
@@ -269,17 +282,21 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
     cd.direction_margin = flip_cost[win] - cost[win];
     if (cd.fit.ok && fsc.enabled && fsc.axial_scan) {
       // Fine position along the axis with the points of the trusted (unworn) part, then the
-      // 5-DoF refinement with it locked.
+      // 5-DoF refinement with projective (camera-ray) correspondences, which are unbiased by the
+      // depth noise at the joint's edges (closest-point matching pulls the end face outward).
       const ProfileModel& model = impl_->models[win];
       const double z_trust = model.trustedMinZ(config_.profile_fit.wear_margin);
-      std::vector<Eigen::Vector3f> trusted;
-      for (const auto& p : cd.pts)
-        if ((p.cast<double>() - cd.fit.origin).dot(cd.fit.z) > z_trust + 0.03) trusted.push_back(p);
+      std::vector<Eigen::Vector3f> trusted, trusted_eyes;
+      for (size_t i = 0; i < cd.pts.size(); ++i)
+        if ((cd.pts[i].cast<double>() - cd.fit.origin).dot(cd.fit.z) > z_trust + 0.03) {
+          trusted.push_back(cd.pts[i]);
+          trusted_eyes.push_back(cd.eyes[i]);
+        }
       ProfileFitResult f0 = cd.fit;
-      axialScan(win, trusted, static_cast<double>(trusted.size()), &f0, fsc.decision_step,
-                fsc.axial_step, fsc.axial_step / 2);
+      axialScan(win, trusted, &trusted_eyes, static_cast<double>(trusted.size()), &f0,
+                fsc.decision_step, fsc.axial_step, fsc.axial_step / 2, true);
       ProfileFitResult f = refineProfile(cd.pts, sig, f0.origin, f0.z, model, config_.profile_fit,
-                                         config_.profile_fit.iterations, true);
+                                         config_.profile_fit.iterations, false, &cd.eyes);
       if (f.ok) cd.fit = f;
     }
     reg_ms += msSince(t0);

@@ -97,6 +97,12 @@ class ProfileModel {
   /// Distance [m] from (z, r) to the profile; gradient (unit, in (z, r)) of the distance when
   /// `grad` is given, and the signed-free distance along it: d = grad . ((z, r) - closest).
   double distance(double z, double r, Eigen::Vector2d* grad = nullptr) const;
+  /// Projective correspondence: the first intersection beyond s_min of the ray x(s) = q + s d
+  /// with the model surface (end frame [m]; d unit, pointing away from the camera; s = 0 at the
+  /// measured point q). False when the ray misses. `zr` receives the hit's (z, r), `normal` the
+  /// unit (z, r) normal of the surface there, oriented toward the camera.
+  bool rayHit(const Eigen::Vector3d& q, const Eigen::Vector3d& d, double s_min, double* s,
+              Eigen::Vector2d* zr, Eigen::Vector2d* normal) const;
   /// Fast approximate distance from the grid (clamped outside it) [m].
   float coarseDistance(double z, double r) const;
   /// z [m] below which the model is not trusted (worn tong length): -(tong length - margin).
@@ -147,11 +153,16 @@ ProfileFitResult fitProfile(const std::vector<Eigen::Vector3f>& points,
 
 /// IRLS refinement of the 5 DoF from (origin, z_axis) [world] for `iterations` iterations;
 /// `lock_axial` keeps the origin's position along the axis (the Hessian still has that DoF).
+/// With `eyes` (the world position of the camera that measured each point), a point is matched
+/// to the model where its camera ray meets it (projective correspondence: unbiased by depth
+/// noise near the joint's edges, where the closest surface is often not the one measured), and
+/// to the closest model point only when its ray misses the model.
 ProfileFitResult refineProfile(const std::vector<Eigen::Vector3f>& points,
                                const std::vector<float>& sigmas, const Eigen::Vector3d& origin,
                                const Eigen::Vector3d& z_axis, const ProfileModel& model,
                                const EstimatorConfig::ProfileFit& config, int iterations,
-                               bool lock_axial = false);
+                               bool lock_axial = false,
+                               const std::vector<Eigen::Vector3f>* eyes = nullptr);
 
 /// Both directions of `axis`, each searched and refined: [0] along +direction, [1] along -.
 /// The 1-DoF search uses `search_model` when given (e.g. the model with a long tong, so that the
@@ -161,7 +172,8 @@ std::array<ProfileFitResult, 2> fitProfileHypotheses(const std::vector<Eigen::Ve
                                                      const AxisLine& axis,
                                                      const ProfileModel& model,
                                                      const EstimatorConfig::ProfileFit& config,
-                                                     const ProfileModel* search_model = nullptr);
+                                                     const ProfileModel* search_model = nullptr,
+                                                     const std::vector<Eigen::Vector3f>* eyes = nullptr);
 
 /// Symmetric free-space evidence of a model pose: the number of distinct depth pixels (summed
 /// over the cameras) on which a camera-facing model surface sample (end frame, outward normals)
@@ -178,8 +190,21 @@ size_t seenThroughPixels(const std::vector<OrientedPoint>& samples,
                          const EstimatorConfig::Noise& noise, float min_cos_incidence,
                          size_t* predicted = nullptr);
 
-/// Mean truncated squared distance [m^2] of the points to `model` placed at (origin, z).
+/// Residual [m] of world point p against `model` placed at (origin, z): with `eye` (its camera's
+/// position), the signed distance to the surface where the camera ray meets the model (huge when
+/// the model hides the point), else - or when the ray misses - the closest-point distance.
+/// `grad` receives the (z, r) normal of the residual in the end frame, `ray_hit` whether the
+/// camera ray met the model, when given.
+double profileResidual(const ProfileModel& model, const Eigen::Vector3d& p,
+                       const Eigen::Vector3d& origin, const Eigen::Vector3d& z,
+                       const Eigen::Vector3d& e1, const Eigen::Vector3d& e2,
+                       const Eigen::Vector3f* eye, Eigen::Vector2d* grad = nullptr,
+                       bool* ray_hit = nullptr);
+
+/// Mean truncated squared residual [m^2] (profileResidual) of the points against `model` placed
+/// at (origin, z); `eyes` as in refineProfile.
 double profileCost(const std::vector<Eigen::Vector3f>& points, const ProfileModel& model,
-                   const Eigen::Vector3d& origin, const Eigen::Vector3d& z, double truncation);
+                   const Eigen::Vector3d& origin, const Eigen::Vector3d& z, double truncation,
+                   const std::vector<Eigen::Vector3f>* eyes = nullptr);
 
 }  // namespace drill_pipe_pose
