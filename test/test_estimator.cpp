@@ -406,6 +406,48 @@ TEST(AxisFit, KnownAxisUnderNoiseAndOutliers) {
   }
 }
 
+TEST(ProfileRegistration, RayHitsTheVisibleSurfaceAndUndoesEdgeBias) {
+  const ToolJointDimensions dims;
+  const ProfileModel box(EndLabel::kBoxEnd, dims);
+  const double R = dims.tool_joint_od / 2;
+  double s;
+  Eigen::Vector2d zr, n;
+  // Straight down onto the end-face annulus (z = 0, the box's opening faces +z): the hit is 1 m
+  // below a point 1 m above the face, the normal faces the camera (+z).
+  const double r_face = 0.5 * (R + dims.box_counterbore_diameter / 2);
+  ASSERT_TRUE(box.rayHit(Eigen::Vector3d(r_face, 0, 1.0), Eigen::Vector3d(0, 0, -1), -5.0, &s,
+                         &zr, &n));
+  EXPECT_NEAR(s, 1.0, 1e-9);
+  EXPECT_NEAR(zr.x(), 0.0, 1e-9);
+  EXPECT_NEAR(zr.y(), r_face, 1e-9);
+  EXPECT_NEAR(n.x(), 1.0, 1e-9);
+  // Horizontally onto the outer wall 0.1 m below the face: the hit is on the cylinder r = R.
+  ASSERT_TRUE(box.rayHit(Eigen::Vector3d(-1.0, 0, -0.1), Eigen::Vector3d(1, 0, 0), -5.0, &s, &zr,
+                         &n));
+  EXPECT_NEAR(zr.y(), R, 1e-9);
+  EXPECT_NEAR(s, 1.0 - R, 1e-9);
+  EXPECT_NEAR(n.y(), 1.0, 1e-9);
+  // A ray passing beside the joint misses it.
+  EXPECT_FALSE(box.rayHit(Eigen::Vector3d(-1.0, R + 0.05, -0.1), Eigen::Vector3d(1, 0, 0), -5.0,
+                          &s, &zr, &n));
+  // A point pushed 1 cm into the joint near the rim along a 45 degree ray: closest-point
+  // matching takes the outer wall (about 3 mm away), the ray its true surface, the end face,
+  // at the 1 cm it was pushed along the ray.
+  const Eigen::Vector3d dir = Eigen::Vector3d(1, 0, -1).normalized();
+  const Eigen::Vector3d on_face(R - 0.004, 0, 0);
+  const Eigen::Vector3d p = on_face + 0.01 * dir;
+  const Eigen::Vector3f eye = (on_face - 3.0 * dir).cast<float>();
+  const double e_closest = profileResidual(box, p, Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(),
+                                           Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), nullptr);
+  bool hit = false;
+  const double e_ray =
+      profileResidual(box, p, Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(),
+                      Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), &eye, nullptr, &hit);
+  EXPECT_TRUE(hit);
+  EXPECT_LT(std::abs(e_closest), 0.005);
+  EXPECT_NEAR(e_ray, -0.01 * std::cos(M_PI / 4), 1e-6);  // behind the face, point-to-plane
+}
+
 TEST(SupportPlane, RemovesAFloorRingButNotTheJointsEndFace) {
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> uni(-1, 1);
