@@ -81,6 +81,13 @@ EstimatorConfig loadEstimatorConfig(const ros::NodeHandle& pnh) {
   readNumber(pnh, "noise/scale", c.noise.scale, 0.0);
   readNumber(pnh, "noise/min_sigma", c.noise.min_sigma, 0.0);
 
+  readParam(pnh, "temporal/enabled", c.temporal.enabled);
+  readNumber(pnh, "temporal/acceleration_density", c.temporal.acceleration_density, 0.0);
+  readNumber(pnh, "temporal/tilt_rate_density", c.temporal.tilt_rate_density, 0.0);
+  readNumber(pnh, "temporal/max_speed", c.temporal.max_speed, 0.0);
+  readNumber(pnh, "temporal/gate_sigma", c.temporal.gate_sigma, 0.0);
+  readNumber(pnh, "temporal/max_gap", c.temporal.max_gap, 0.0);
+
   readNumber(pnh, "covariance/inflation", c.covariance.inflation, 0.0);
   readNumber(pnh, "covariance/min_lateral_std", c.covariance.min_lateral_std, 0.0);
   readNumber(pnh, "covariance/min_axial_std", c.covariance.min_axial_std, 0.0);

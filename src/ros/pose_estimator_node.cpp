@@ -11,7 +11,9 @@
 
 #include <sensor_msgs/PointCloud2.h>
 #include <sensor_msgs/point_cloud2_iterator.h>
+#include <tf2/buffer_core.h>
 #include <tf2_eigen/tf2_eigen.h>
+#include <tf2_msgs/TFMessage.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
@@ -74,6 +76,7 @@ class PoseEstimatorNode {
         estimator_(est_cfg_),
         sync_(cfg_.cameras, cfg_.sync),
         tf_listener_(tf_buffer_) {
+    static_tf_sub_ = nh_.subscribe("/tf_static", 100, &PoseEstimatorNode::onStaticTf, this);
     for (const auto& cam : cfg_.cameras) {
       const std::string topic = conventions::sensorFrameTopic(cam);
       subs_.push_back(nh_.subscribe<SensorFrame>(
@@ -148,28 +151,28 @@ class PoseEstimatorNode {
       in.frame = fromMsg(s.msg);
     } catch (const InputError& e) {
       ++counters_[s.camera].bad_input;
-      ROS_ERROR_THROTTLE(5.0, "pose_estimator: dropping a frame of %s (throttled, 5 s): %s",
-                         s.camera.c_str(), e.what());
+      if (throttle("bad input " + s.camera, 5.0))
+        ROS_ERROR("pose_estimator: dropping a frame of %s (throttled, 5 s): %s", s.camera.c_str(),
+                  e.what());
       return std::nullopt;
     }
     const std::string depth_frame =
         !in.frame.depth_frame_id.empty() ? in.frame.depth_frame_id : in.frame.depth_info.frame_id;
     const std::string color_frame =
         !in.frame.color_info.frame_id.empty() ? in.frame.color_info.frame_id : in.frame.frame_id;
+    const ros::Time stamp =
+        fromNs(in.frame.depth_stamp_ns ? in.frame.depth_stamp_ns : in.frame.stamp_ns);
     try {
-      const ros::Time stamp =
-          fromNs(in.frame.depth_stamp_ns ? in.frame.depth_stamp_ns : in.frame.stamp_ns);
-      in.T_world_depth = tf2::transformToEigen(tf_buffer_.lookupTransform(
-          cfg_.world_frame, depth_frame, stamp, ros::Duration(cfg_.tf_timeout)));
-      in.T_color_depth = tf2::transformToEigen(tf_buffer_.lookupTransform(
-          color_frame, depth_frame, stamp, ros::Duration(cfg_.tf_timeout)));
+      in.T_world_depth = lookup(cfg_.world_frame, depth_frame, stamp);
+      in.T_color_depth = lookup(color_frame, depth_frame, stamp);
     } catch (const tf2::TransformException& e) {
       ++counters_[s.camera].tf_failures;
-      ROS_WARN_THROTTLE(5.0,
-                        "pose_estimator: no transform for %s (throttled, 5 s): %s <- '%s' and "
-                        "'%s' <- '%s': %s",
-                        s.camera.c_str(), cfg_.world_frame.c_str(), depth_frame.c_str(),
-                        color_frame.c_str(), depth_frame.c_str(), e.what());
+      if (throttle("tf " + s.camera, 5.0))
+        ROS_WARN(
+            "pose_estimator: no transform for %s (throttled, 5 s): %s <- '%s' and '%s' <- '%s': "
+            "%s",
+            s.camera.c_str(), cfg_.world_frame.c_str(), depth_frame.c_str(), color_frame.c_str(),
+            depth_frame.c_str(), e.what());
       return std::nullopt;
     }
     return in;
@@ -179,13 +182,19 @@ class PoseEstimatorNode {
     std::vector<CameraInput> inputs;
     for (const auto& [cam, id] : cycle.frames) {
       auto it = store_.find(id);
-      if (it == store_.end()) continue;
+      if (it == store_.end()) {
+        if (throttle("store " + cam, 5.0))
+          ROS_WARN("pose_estimator: frame %lu of %s is gone from the store (throttled, 5 s)",
+                   static_cast<unsigned long>(id), cam.c_str());
+        continue;
+      }
       if (auto in = makeInput(it->second)) inputs.push_back(std::move(*in));
       store_.erase(it);
     }
     CycleResult result = estimator_.process(inputs);
     for (const auto& err : result.camera_errors)
-      ROS_ERROR_THROTTLE(5.0, "pose_estimator: %s (throttled, 5 s)", err.c_str());
+      if (throttle(err.substr(0, err.find(':')), 5.0))
+        ROS_ERROR("pose_estimator: %s (throttled, 5 s)", err.c_str());
     last_cycle_stamp_ns_ = cycle.stamp_ns;
     publish(cycle, result);
   }
@@ -364,10 +373,38 @@ class PoseEstimatorNode {
     }
     last_diag_wall_ = now;
     diag_pub_.publish(arr);
-    if (sync_.liveCameras().empty())
-      ROS_WARN_THROTTLE(10.0,
-                        "pose_estimator: no live camera (throttled, 10 s): is anything "
-                        "publishing <cam>/sensor_frame? (see /diagnostics)");
+    if (sync_.liveCameras().empty() && throttle("no live camera", 10.0))
+      ROS_WARN(
+          "pose_estimator: no live camera (throttled, 10 s): is anything publishing "
+          "<cam>/sensor_frame? (see /diagnostics)");
+  }
+
+  /// True at most once per `period` wall-clock seconds per key. (ROS_*_THROTTLE follows
+  /// ros::Time, which under a simulated clock that jumps back stays silent for as long.)
+  bool throttle(const std::string& key, double period) {
+    const double now = ros::WallTime::now().toSec();
+    auto it = throttle_last_.find(key);
+    if (it != throttle_last_.end() && now - it->second < period) return false;
+    throttle_last_[key] = now;
+    return true;
+  }
+
+  /// /tf_static also goes into a buffer of our own: tf2_ros clears its buffer, static transforms
+  /// included, when the clock jumps back (a looped bag), possibly after the bag re-sent them.
+  void onStaticTf(const tf2_msgs::TFMessageConstPtr& msg) {
+    for (const auto& t : msg->transforms) static_buffer_.setTransform(t, "tf_static", true);
+  }
+
+  /// target <- source at `stamp`: from the static transforms when they connect the two frames,
+  /// else from TF (waiting up to tf_timeout). Throws tf2::TransformException.
+  Eigen::Isometry3d lookup(const std::string& target, const std::string& source,
+                           const ros::Time& stamp) {
+    try {
+      return tf2::transformToEigen(static_buffer_.lookupTransform(target, source, ros::Time(0)));
+    } catch (const tf2::TransformException&) {
+      return tf2::transformToEigen(
+          tf_buffer_.lookupTransform(target, source, stamp, ros::Duration(cfg_.tf_timeout)));
+    }
   }
 
   struct LastEstimate {
@@ -383,6 +420,9 @@ class PoseEstimatorNode {
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
+  tf2::BufferCore static_buffer_;  ///< /tf_static only (see onStaticTf)
+  std::map<std::string, double> throttle_last_;                       ///< wall time [s] by key
+  ros::Subscriber static_tf_sub_;
   std::vector<ros::Subscriber> subs_;
   std::array<ros::Publisher, kNumEnds> pose_pubs_;
   ros::Publisher ends_pub_, status_pub_, diag_pub_, fused_pub_, segmented_pub_, marker_pub_;

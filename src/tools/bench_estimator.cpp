@@ -3,9 +3,10 @@
 //
 //   rosrun drill_pipe_pose bench_estimator BAG [--method ours|thesis_baseline] [--max-cycles N]
 //       [--config estimator.yaml-like params are not read here: defaults + --work-zone]
-//       [--csv errors.csv] [--label NAME] [--skip-camera CAM]
+//       [--csv errors.csv] [--label NAME] [--skip-camera CAM] [--no-temporal]
 //
-// --skip-camera leaves one camera's frames out (a dead camera). Invalid ends are counted by reason.
+// --skip-camera leaves one camera's frames out (a dead camera); --no-temporal turns the temporal
+// filter off (each cycle stands alone). Invalid ends are counted by reason.
 //
 // Cycles are formed exactly as the node forms them (FrameSynchronizer), with each frame arriving
 // 10 ms after its capture stamp. TF comes from the bag's /tf_static and /tf.
@@ -38,7 +39,7 @@ namespace {
 
 void usage() {
   std::cerr << "usage: bench_estimator BAG [--method ours|thesis_baseline] [--max-cycles N] "
-               "[--work-zone x0 y0 z0 x1 y1 z1] [--csv FILE] [--label NAME] [--skip-camera CAM]\n";
+               "[--work-zone x0 y0 z0 x1 y1 z1] [--csv FILE] [--label NAME] [--skip-camera CAM] [--no-temporal]\n";
 }
 
 }  // namespace
@@ -68,6 +69,8 @@ int main(int argc, char** argv) {
       label = next();
     else if (a == "--skip-camera")
       skip_camera = next();
+    else if (a == "--no-temporal")
+      cfg.temporal.enabled = false;
     else if (a == "--work-zone") {
       for (int k = 0; k < 3; ++k) cfg.work_zone.min[k] = std::stod(next());
       for (int k = 0; k < 3; ++k) cfg.work_zone.max[k] = std::stod(next());

@@ -90,6 +90,11 @@ void validateConfig(const EstimatorConfig& c) {
   non_negative(c.free_space.min_direction_margin, "free_space.min_direction_margin");
   finite_positive(c.noise.scale, "noise.scale");
   finite_positive(c.noise.min_sigma, "noise.min_sigma");
+  finite_positive(c.temporal.acceleration_density, "temporal.acceleration_density");
+  finite_positive(c.temporal.tilt_rate_density, "temporal.tilt_rate_density");
+  finite_positive(c.temporal.max_speed, "temporal.max_speed");
+  finite_positive(c.temporal.gate_sigma, "temporal.gate_sigma");
+  finite_positive(c.temporal.max_gap, "temporal.max_gap");
   finite_positive(c.covariance.inflation, "covariance.inflation");
   non_negative(c.covariance.min_lateral_std, "covariance.min_lateral_std");
   non_negative(c.covariance.min_axial_std, "covariance.min_axial_std");

@@ -9,6 +9,7 @@
 
 #include "drill_pipe_pose/core/errors.hpp"
 #include "drill_pipe_pose/core/estimator/stages.hpp"
+#include "drill_pipe_pose/core/estimator/temporal_filter.hpp"
 #include "drill_pipe_pose/core/estimator/thesis_baseline.hpp"
 #include "drill_pipe_pose/core/pipe_end_frame.hpp"
 
@@ -42,6 +43,7 @@ struct PoseEstimator::Impl {
   /// free_space.tube_length of tube.
   std::array<std::vector<OrientedPoint>, kNumEnds> fs_samples;
   std::unique_ptr<ThesisBaseline> baseline;
+  std::array<EndPoseFilter, kNumEnds> filters;
 };
 
 PoseEstimator::PoseEstimator(const EstimatorConfig& config)
@@ -70,12 +72,14 @@ PoseEstimator::PoseEstimator(const EstimatorConfig& config)
   }
   if (config_.method == EstimatorMethod::kThesisBaseline)
     impl_->baseline = std::make_unique<ThesisBaseline>(config_);
+  for (auto& f : impl_->filters) f = EndPoseFilter(config_.temporal);
 }
 
 PoseEstimator::~PoseEstimator() = default;
 
 void PoseEstimator::reset() {
   if (impl_->baseline) impl_->baseline->reset();
+  for (auto& f : impl_->filters) f.reset();
 }
 
 /// 6x6 world covariance (x y z, rotation about world x y z) from a 5-DoF profile fit.
@@ -127,6 +131,8 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
     result.timing.total_ms = msSince(t_start);
     return result;
   }
+  int64_t cycle_stamp_ns = 0;  // the cycle's latest capture stamp (DESIGN.md)
+  for (const CameraInput& in : inputs) cycle_stamp_ns = std::max(cycle_stamp_ns, in.frame.stamp_ns);
   if (impl_->baseline) {
     impl_->baseline->process(cams, &result);
     result.timing.total_ms = msSince(t_start);
@@ -295,8 +301,15 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
       ProfileFitResult f0 = cd.fit;
       axialScan(win, trusted, &trusted_eyes, static_cast<double>(trusted.size()), &f0,
                 fsc.decision_step, fsc.axial_step, fsc.axial_step / 2, true);
-      ProfileFitResult f = refineProfile(cd.pts, sig, f0.origin, f0.z, model, config_.profile_fit,
-                                         config_.profile_fit.iterations, false, &cd.eyes);
+      // Refined with the position along the axis free and locked: the one with the lower
+      // truncated cost wins (the free one follows the end face's points, but can slide along a
+      // joint whose shoulder and nose the cameras barely see, leaving them as outliers).
+      const int its = config_.profile_fit.iterations;
+      ProfileFitResult f =
+          refineProfile(cd.pts, sig, f0.origin, f0.z, model, config_.profile_fit, its, false, &cd.eyes);
+      const ProfileFitResult fl =
+          refineProfile(cd.pts, sig, f0.origin, f0.z, model, config_.profile_fit, its, true, &cd.eyes);
+      if (fl.ok && (!f.ok || fl.cost < f.cost)) f = fl;
       if (f.ok) cd.fit = f;
     }
     reg_ms += msSince(t0);
@@ -372,6 +385,11 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
         result.segmented[slot].push_back(cd.pts[i]);
       }
     for (uint16_t c : used) e.cameras.push_back(cams[c].name);
+    if (config_.temporal.enabled) {
+      Eigen::Vector3d o = e.T_world_end.translation(), z = e.T_world_end.linear().col(2);
+      impl_->filters[slot].update(cycle_stamp_ns, &o, &z, &e.covariance);
+      e.T_world_end = canonicalPose(o, z);
+    }
   }
   result.timing.total_ms = msSince(t_start);
   return result;

@@ -140,6 +140,24 @@ struct EstimatorConfig {
     double roll_variance = 1e3;      ///< [rad^2] about the axis (unobservable)
   } covariance;
 
+  /// Temporal filter of each end's pose across cycles (temporal_filter.hpp): a constant-velocity
+  /// Kalman filter on the origin and a random-walk filter on the axis. Off: each cycle stands
+  /// alone.
+  struct Temporal {
+    bool enabled = true;
+    /// [m^2/s^3] white-acceleration spectral density: larger follows sudden moves faster,
+    /// smaller smooths more; a move beyond gate_sigma of the prediction restarts the filter.
+    double acceleration_density = 0.01;
+    /// [rad^2/s] random-walk density of the axis direction.
+    double tilt_rate_density = 0.0001;
+    /// [m/s] prior velocity std at a (re)start.
+    double max_speed = 1.0;
+    /// A measurement further than this many sigma from the prediction restarts the filter.
+    double gate_sigma = 4.0;
+    /// [s] a longer gap between measurements restarts the filter.
+    double max_gap = 0.5;
+  } temporal;
+
   /// thesis_baseline parameters (thesis chapter 3.4).
   struct Baseline {
     int layers = 3;                   ///< concatenated clouds (cycles)
