@@ -67,10 +67,10 @@ class EstimatorReplay(unittest.TestCase):
             rec.send_signal(signal.SIGINT)
             rec.wait(timeout=20)
 
-    @unittest.skip("issue 4 open: box_end axis error ~3 deg and ~10 mm axial bias exceed these bounds")
     def test_1_accuracy_through_the_node(self):
         rec = os.path.join(self.tmp, "estimates.bag")
-        self.play(self.bag, record=rec)
+        # Half speed: accuracy, not throughput (scripts/bench measures that), on a loaded CI machine.
+        self.play(self.bag, extra=("-r", "0.5"), record=rec)
         csv_path = os.path.join(self.tmp, "errors.csv")
         out = subprocess.run([tool("evaluate"), rec, "--csv", csv_path], capture_output=True, text=True)
         print(out.stdout, out.stderr)
@@ -82,7 +82,7 @@ class EstimatorReplay(unittest.TestCase):
             # 3 s at 30 Hz = 90 expected cycles.
             self.assertGreaterEqual(len(errs), 70, f"{end}: only {len(errs)} estimates (seed {SEED})")
             mean = sum(errs) / len(errs)
-            self.assertLess(mean, 0.015, f"{end}: mean 3D error {mean * 1e3:.1f} mm (seed {SEED})")
+            self.assertLess(mean, 0.010, f"{end}: mean 3D error {mean * 1e3:.1f} mm (seed {SEED})")
             self.assertLess(sum(angles) / len(angles), 1.5, f"{end}: mean axis error (seed {SEED})")
 
     def test_2_camera_stops_mid_bag(self):
