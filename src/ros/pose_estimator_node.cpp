@@ -196,10 +196,11 @@ class PoseEstimatorNode {
       if (throttle(err.substr(0, err.find(':')), 5.0))
         ROS_ERROR("pose_estimator: %s (throttled, 5 s)", err.c_str());
     last_cycle_stamp_ns_ = cycle.stamp_ns;
-    publish(cycle, result);
+    publish(cycle, result, inputs);
   }
 
-  void publish(const FrameSynchronizer::Cycle& cycle, const CycleResult& r) {
+  void publish(const FrameSynchronizer::Cycle& cycle, const CycleResult& r,
+               const std::vector<CameraInput>& inputs) {
     const ros::Time stamp = fromNs(cycle.stamp_ns);
     PipeEnds ends;
     ends.header.stamp = stamp;
@@ -261,7 +262,7 @@ class PoseEstimatorNode {
     ends_pub_.publish(ends);
     status.latency_ms = (wallNow() - cycle.last_arrival) * 1e3;
     status_pub_.publish(status);
-    publishDebug(r, stamp);
+    publishDebug(r, stamp, inputs);
   }
 
   void publishPose(int e, const EndEstimate& est, const ros::Time& stamp) {
@@ -297,7 +298,8 @@ class PoseEstimatorNode {
     return c;
   }
 
-  void publishDebug(const CycleResult& r, const ros::Time& stamp) {
+  void publishDebug(const CycleResult& r, const ros::Time& stamp,
+                    const std::vector<CameraInput>& inputs) {
     if (fused_pub_.getNumSubscribers() > 0)
       fused_pub_.publish(cloudMsg({{&r.fused, 0xc0c0c0}}, stamp));
     if (segmented_pub_.getNumSubscribers() > 0)
@@ -326,8 +328,84 @@ class PoseEstimatorNode {
       }
       ma.markers.push_back(m);
     }
+    // Each camera's colour frustum (to frustum_range), in its optical frame.
+    for (size_t i = 0; i < inputs.size(); ++i) {
+      const CameraInfoData& ci = inputs[i].frame.color_info;
+      if (!(ci.K[0] > 0 && ci.K[4] > 0) || ci.width == 0 || ci.height == 0) continue;
+      visualization_msgs::Marker m;
+      m.header.stamp = stamp;
+      m.header.frame_id =
+          !ci.frame_id.empty() ? ci.frame_id : inputs[i].frame.frame_id;
+      m.ns = "camera " + inputs[i].frame.camera;
+      m.id = 0;
+      m.type = visualization_msgs::Marker::LINE_LIST;
+      m.action = visualization_msgs::Marker::ADD;
+      m.pose.orientation.w = 1.0;
+      m.scale.x = 0.02;
+      m.color.a = 0.7f;
+      m.color.r = m.color.g = m.color.b = 0.85f;
+      m.lifetime = ros::Duration(1.0);
+      const double z = kFrustumRange;
+      std::array<geometry_msgs::Point, 4> c;
+      const double us[4] = {0, double(ci.width), double(ci.width), 0};
+      const double vs[4] = {0, 0, double(ci.height), double(ci.height)};
+      for (int k = 0; k < 4; ++k) {
+        c[k].x = (us[k] - ci.K[2]) / ci.K[0] * z;
+        c[k].y = (vs[k] - ci.K[5]) / ci.K[4] * z;
+        c[k].z = z;
+      }
+      const geometry_msgs::Point o;
+      for (int k = 0; k < 4; ++k) {
+        m.points.push_back(o);
+        m.points.push_back(c[k]);
+        m.points.push_back(c[k]);
+        m.points.push_back(c[(k + 1) % 4]);
+      }
+      ma.markers.push_back(m);
+      visualization_msgs::Marker label = m;
+      label.type = visualization_msgs::Marker::TEXT_VIEW_FACING;
+      label.ns = "camera names";
+      label.id = static_cast<int>(i);
+      label.header.frame_id = m.header.frame_id;
+      label.points.clear();
+      label.scale.z = 0.25;
+      label.text = inputs[i].frame.camera;
+      ma.markers.push_back(label);
+    }
+    // Status text above the work zone: each end's state in a line.
+    visualization_msgs::Marker text;
+    text.header.stamp = stamp;
+    text.header.frame_id = cfg_.world_frame;
+    text.ns = "status";
+    text.type = visualization_msgs::Marker::TEXT_VIEW_FACING;
+    text.action = visualization_msgs::Marker::ADD;
+    const Eigen::Vector3d top = 0.5 * (est_cfg_.work_zone.min + est_cfg_.work_zone.max);
+    const bool bounded = (est_cfg_.work_zone.max - est_cfg_.work_zone.min).maxCoeff() < 100.0;
+    text.pose.position.x = bounded ? top.x() : 0.0;
+    text.pose.position.y = bounded ? top.y() : 0.0;
+    text.pose.position.z = bounded ? est_cfg_.work_zone.max.z() : 3.0;
+    text.pose.orientation.w = 1.0;
+    text.scale.z = 0.2;
+    text.color.a = text.color.r = text.color.g = text.color.b = 1.0f;
+    char line[256];
+    for (int e = 0; e < kNumEnds; ++e) {
+      const EndEstimate& est = r.ends[e];
+      if (est.valid)
+        std::snprintf(line, sizeof(line), "%s: %zu points, %zu cameras, residual %.1f mm\n",
+                      labelName(est.label), est.points, est.cameras.size(), est.residual * 1e3);
+      else
+        std::snprintf(line, sizeof(line), "%s: invalid (%.80s)\n", labelName(est.label),
+                      est.reason.c_str());
+      text.text += line;
+    }
+    std::snprintf(line, sizeof(line), "%zu/%zu cameras, %.1f ms", r.cameras_used.size(),
+                  cfg_.cameras.size(), r.timing.total_ms);
+    text.text += line;
+    ma.markers.push_back(text);
     marker_pub_.publish(ma);
   }
+
+  static constexpr double kFrustumRange = 1.5;  ///< [m] drawn length of the camera frustums
 
   void publishDiagnostics() {
     diagnostic_msgs::DiagnosticArray arr;
