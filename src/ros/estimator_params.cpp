@@ -61,6 +61,8 @@ EstimatorConfig loadEstimatorConfig(const ros::NodeHandle& pnh) {
   readNumber(pnh, "profile_fit/search_points", c.profile_fit.search_points, 1.0);
   readNumber(pnh, "profile_fit/max_rms", c.profile_fit.max_rms, 0.0);
   readNumber(pnh, "profile_fit/min_inlier_fraction", c.profile_fit.min_inlier_fraction, 0.0);
+  readNumber(pnh, "profile_fit/max_axial_std", c.profile_fit.max_axial_std, 0.0);
+  readNumber(pnh, "profile_fit/max_tilt_std", c.profile_fit.max_tilt_std, 0.0);
 
   readNumber(pnh, "profile_fit/max_points", c.profile_fit.max_points, 1.0);
   readParam(pnh, "profile_fit/long_tong_search", c.profile_fit.long_tong_search);

@@ -71,6 +71,8 @@ void validateConfig(const EstimatorConfig& c) {
   finite_positive(c.profile_fit.max_rms, "profile_fit.max_rms");
   non_negative(c.profile_fit.min_inlier_fraction, "profile_fit.min_inlier_fraction");
   non_negative(c.cutout.edge_jump, "cutout.edge_jump");
+  finite_positive(c.profile_fit.max_axial_std, "profile_fit.max_axial_std");
+  finite_positive(c.profile_fit.max_tilt_std, "profile_fit.max_tilt_std");
   if (c.axis_fit.plane_iterations < 0)
     fail("estimator config: axis_fit.plane_iterations = ", c.axis_fit.plane_iterations,
          " must be >= 0");

@@ -32,6 +32,9 @@ struct Candidate {
   std::vector<uint16_t> cams;
   std::vector<Eigen::Vector3f> eyes;  ///< world position of the camera of each point
   double direction_margin = 0.0;  ///< score of the flipped axis direction minus the winner's
+  /// The position along the axis comes from the scan (locked in the refinement): the fit's
+  /// covariance does not describe it.
+  bool axial_from_scan = false;
 };
 
 }  // namespace
@@ -310,6 +313,8 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
       const ProfileFitResult fl =
           refineProfile(cd.pts, sig, f0.origin, f0.z, model, config_.profile_fit, its, true, &cd.eyes);
       if (fl.ok && (!f.ok || fl.cost < f.cost)) f = fl;
+      // Locked, or free but not moved along the axis (no point carries axial information).
+      cd.axial_from_scan = std::abs((f.origin - f0.origin).dot(f0.z)) < 1e-6;
       if (f.ok) cd.fit = f;
     }
     reg_ms += msSince(t0);
@@ -332,6 +337,27 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
         << cd.fit.inliers << "/" << cd.pts.size();
       cd.reason = s.str();
       continue;
+    }
+    {
+      // A pose the points do not pin down (dark steel: the shoulder and the taper drop out) is
+      // not published: its reported uncertainty says so.
+      const Eigen::Matrix<double, 6, 6> C = worldCovariance(cd.fit, config_.covariance);
+      const Eigen::Vector3d z = cd.fit.z.normalized();
+      const double axial_std = std::sqrt(std::max(0.0, z.dot(C.topLeftCorner<3, 3>() * z)));
+      const Eigen::Vector3d e1 = cd.fit.basis.col(0), e2 = cd.fit.basis.col(1);
+      const double tilt_std = std::sqrt(
+          std::max(0.0, 0.5 * (e1.dot(C.bottomRightCorner<3, 3>() * e1) +
+                               e2.dot(C.bottomRightCorner<3, 3>() * e2))));
+      if ((!cd.axial_from_scan && axial_std > config_.profile_fit.max_axial_std) ||
+          tilt_std > config_.profile_fit.max_tilt_std) {
+        std::ostringstream s;
+        s << "pose not determined by the points: reported std " << axial_std * 1000
+          << " mm along the axis, " << tilt_std * 180 / M_PI << " deg tilt (limits "
+          << config_.profile_fit.max_axial_std * 1000 << " mm, "
+          << config_.profile_fit.max_tilt_std * 180 / M_PI << " deg)";
+        cd.reason = s.str();
+        continue;
+      }
     }
     cd.ok = true;
   }

@@ -96,6 +96,10 @@ struct EstimatorConfig {
     bool long_tong_search = false;
     double max_rms = 0.02;             ///< [m] a fit with a larger inlier RMS residual is invalid
     double min_inlier_fraction = 0.4;  ///< a fit with fewer inliers (of the points) is invalid
+    /// [m], [rad] a fit whose reported std along the axis / of the tilt is larger is invalid (the
+    /// points do not determine the pose: nothing is published rather than a guess).
+    double max_axial_std = 0.05;
+    double max_tilt_std = 0.1;
   } profile_fit;
 
   /// Free-space check against the depth images, scored symmetrically for every hypothesis (both
