@@ -69,8 +69,9 @@ class EstimatorReplay(unittest.TestCase):
 
     def test_1_accuracy_through_the_node(self):
         rec = os.path.join(self.tmp, "estimates.bag")
-        # Half speed: accuracy, not throughput (scripts/bench measures that), on a loaded CI machine.
-        self.play(self.bag, extra=("-r", "0.5"), record=rec)
+        # Quarter speed: accuracy, not throughput (scripts/bench measures that; the node runs at
+        # ~18 cycles/s on a 2-core machine, so half speed, 15 cycles/s, leaves no margin).
+        self.play(self.bag, extra=("-r", "0.25"), record=rec)
         csv_path = os.path.join(self.tmp, "errors.csv")
         out = subprocess.run([tool("evaluate"), rec, "--csv", csv_path], capture_output=True, text=True)
         print(out.stdout, out.stderr)
