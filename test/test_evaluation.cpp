@@ -1,4 +1,5 @@
-// Evaluation: ground truth scored against itself is zero; a known offset comes back exactly.
+// Evaluation: ground truth scored against itself is zero; a known offset comes back exactly; a
+// known delay comes back as lag.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -90,4 +91,33 @@ TEST(Evaluation, InterpolatesBetweenSamples) {
   ASSERT_TRUE(t.at(static_cast<int64_t>(1e9 * 100.505), &T));
   EXPECT_NEAR(T.translation().z(), 2.0 - 0.2 * 0.505, 1e-9);
   EXPECT_FALSE(t.at(static_cast<int64_t>(1e9 * 99), &T));
+}
+
+TEST(Evaluation, LagIsTheSignedErrorAlongTheMotion) {
+  // Estimates 40 ms late on the pin end descending at 0.2 m/s: 8 mm behind (negative).
+  std::array<GroundTruthTrack, kNumEnds> truth;
+  truth[1] = movingTrack();
+  std::vector<EstimateSample> est;
+  for (int k = 5; k < 55; ++k) {
+    EstimateSample s;
+    s.stamp_ns = static_cast<int64_t>(1e9 * (100.0 + k / 30.0));
+    s.label = EndLabel::kPinEnd;
+    s.valid = true;
+    ASSERT_TRUE(truth[1].at(s.stamp_ns - 40000000, &s.T_world_end));
+    est.push_back(s);
+  }
+  const auto ev = evaluate(truth, est);
+  EXPECT_EQ(ev[1].moving_estimates, 50u);
+  EXPECT_NEAR(ev[1].mean_lag, -0.008, 2e-4);
+  // A static end has no lag figure.
+  std::array<GroundTruthTrack, kNumEnds> still;
+  still[0].add(0, canonicalPose({4.694, 5.3, 0.23}, {0, 0, 1}));
+  still[0].add(10000000000, canonicalPose({4.694, 5.3, 0.23}, {0, 0, 1}));
+  EstimateSample s;
+  s.stamp_ns = 5000000000;
+  s.valid = true;
+  s.T_world_end = canonicalPose({4.7, 5.3, 0.23}, {0, 0, 1});
+  const auto ev0 = evaluate(still, {s});
+  EXPECT_EQ(ev0[0].moving_estimates, 0u);
+  EXPECT_TRUE(std::isnan(ev0[0].mean_lag));
 }

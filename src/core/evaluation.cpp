@@ -70,6 +70,7 @@ std::array<EndEvaluation, kNumEnds> evaluate(const std::array<GroundTruthTrack, 
     std::vector<PoseError> errors;
     std::vector<Eigen::Vector3d> positions;
     size_t with_cov = 0, inside = 0;
+    double lag_sum = 0;
     Eigen::Vector3d true_sum = Eigen::Vector3d::Zero();
     for (const auto& est : estimates) {
       if (est.label != ev.label || !est.valid) continue;
@@ -80,6 +81,16 @@ std::array<EndEvaluation, kNumEnds> evaluate(const std::array<GroundTruthTrack, 
       positions.push_back(est.T_world_end.translation());
       ev.stamps.push_back(est.stamp_ns);
       true_sum += T_true.translation();
+      // Velocity of the ground truth by central difference over +-50 ms.
+      Eigen::Isometry3d T_a, T_b;
+      const int64_t h = 50000000;
+      if (gt.at(est.stamp_ns - h, &T_a, 0) && gt.at(est.stamp_ns + h, &T_b, 0)) {
+        const Eigen::Vector3d v = (T_b.translation() - T_a.translation()) / (2 * h * 1e-9);
+        if (v.norm() > options.moving_speed) {
+          lag_sum += err.position.dot(v.normalized());
+          ++ev.moving_estimates;
+        }
+      }
       const Eigen::Matrix3d P = est.covariance.topLeftCorner<3, 3>();
       if (P.trace() > 0) {
         ++with_cov;
@@ -89,6 +100,8 @@ std::array<EndEvaluation, kNumEnds> evaluate(const std::array<GroundTruthTrack, 
     }
     ev.stats = computeStats(errors, positions, std::max(expected, errors.size()));
     ev.within_3sigma = with_cov ? static_cast<double>(inside) / with_cov : std::nan("");
+    ev.mean_lag = ev.moving_estimates ? lag_sum / static_cast<double>(ev.moving_estimates)
+                                      : std::nan("");
     if (!errors.empty()) ev.true_position = true_sum / static_cast<double>(errors.size());
   }
   return out;
@@ -144,6 +157,10 @@ void printEvaluation(const std::array<EndEvaluation, kNumEnds>& evals, std::ostr
     if (!std::isnan(ev.within_3sigma))
       out << "   error inside the reported 3-sigma ellipsoid: " << 100 * ev.within_3sigma
           << " % of estimates\n";
+    if (ev.moving_estimates > 0)
+      out << std::setprecision(1) << "   lag (signed error along the motion) [mm]: mean "
+          << ev.mean_lag * 1e3 << " over " << ev.moving_estimates
+          << " estimates while moving (negative: behind)\n";
   }
   out.unsetf(std::ios::fixed);
 }

@@ -53,12 +53,18 @@ struct EndEvaluation {
   /// reported position covariance (NaN when no covariance was given).
   double within_3sigma = 0;
   Eigen::Vector3d true_position = Eigen::Vector3d::Zero();  ///< mean ground-truth position
+  /// Lag: mean signed position error [m] along the ground truth's direction of motion, over the
+  /// estimates taken while the end moved faster than EvaluationOptions::moving_speed (negative:
+  /// behind the true pose). NaN when it never moved.
+  double mean_lag = 0;
+  size_t moving_estimates = 0;
 };
 
 struct EvaluationOptions {
   double expected_rate_hz = 30.0;  ///< expected cycles per second of ground truth (DESIGN.md)
   /// Expected cycles; 0 = expected_rate_hz * ground-truth span.
   size_t expected_cycles = 0;
+  double moving_speed = 0.02;  ///< [m/s] faster counts as moving (lag statistics)
 };
 
 /// Scores `estimates` of each end against its ground-truth track (index = EndLabel).
