@@ -4,6 +4,7 @@
 #include <limits>
 
 #include "drill_pipe_pose/core/errors.hpp"
+#include "drill_pipe_pose/core/quadratic.hpp"
 
 namespace drill_pipe_pose::sim {
 
@@ -94,17 +95,7 @@ bool RevolvedShape::intersect(const Ray& ray, double t_min, double t_max, LocalH
     const double b = 2.0 * (ox * dx + oy * dy - e.k * dz * w);
     const double cc = ox * ox + oy * oy - w * w;
     double roots[2];
-    int n = 0;
-    if (std::abs(a) < 1e-14) {
-      if (std::abs(b) > 1e-15) roots[n++] = -cc / b;
-    } else {
-      const double disc = b * b - 4.0 * a * cc;
-      if (disc < 0.0) continue;
-      const double sq = std::sqrt(disc);
-      const double q = -0.5 * (b + (b >= 0.0 ? sq : -sq));
-      roots[n++] = q / a;
-      if (std::abs(q) > 1e-300) roots[n++] = cc / q;
-    }
+    const int n = solveQuadratic(a, b, cc, roots);
     for (int i = 0; i < n; ++i) {
       const double t = roots[i];
       if (!(t > t_min && t < best)) continue;

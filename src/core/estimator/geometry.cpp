@@ -9,6 +9,7 @@
 #include <random>
 
 #include "drill_pipe_pose/core/errors.hpp"
+#include "drill_pipe_pose/core/quadratic.hpp"
 #include "drill_pipe_pose/core/estimator/stages.hpp"
 
 namespace drill_pipe_pose {
@@ -400,16 +401,7 @@ bool ProfileModel::rayHit(const Eigen::Vector3d& q, const Eigen::Vector3d& d, do
     const double w0 = ra + k * (q.z() - za), w1 = k * d.z();  // r(s) = w0 + w1 s
     const double A = dd - w1 * w1, B = 2 * (qd - w0 * w1), C = qq - w0 * w0;
     double roots[2];
-    int n = 0;
-    if (std::abs(A) < 1e-12) {
-      if (std::abs(B) > 1e-12) roots[n++] = -C / B;
-    } else {
-      const double disc = B * B - 4 * A * C;
-      if (disc < 0) continue;
-      const double sq = std::sqrt(disc);
-      roots[n++] = (-B - sq) / (2 * A);
-      roots[n++] = (-B + sq) / (2 * A);
-    }
+    const int n = solveQuadratic(A, B, C, roots);
     for (int i = 0; i < n; ++i) {
       const double s = roots[i];
       if (!(s > s_min && s < best)) continue;

@@ -21,7 +21,6 @@ bool EndPoseFilter::update(int64_t stamp_ns, Eigen::Vector3d* origin, Eigen::Vec
   const double dt = (stamp_ns - stamp_ns_) * 1e-9;
   auto restart = [&]() {
     initialised_ = true;
-    age_ = 0;
     stamp_ns_ = stamp_ns;
     x_.head<3>() = *origin;
     x_.tail<3>().setZero();
@@ -69,7 +68,6 @@ bool EndPoseFilter::update(int64_t stamp_ns, Eigen::Vector3d* origin, Eigen::Vec
   axis_ = (axis_ + k_axis * (meas_axis - axis_)).normalized();
   axis_var_ = (1.0 - k_axis) * axis_var_pred;
   stamp_ns_ = stamp_ns;
-  ++age_;
 
   *origin = x_.head<3>();
   *axis = axis_;

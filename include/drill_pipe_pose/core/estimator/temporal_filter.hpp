@@ -25,13 +25,10 @@ class EndPoseFilter {
               Eigen::Matrix<double, 6, 6>* covariance);
 
   void reset() { initialised_ = false; }
-  /// Cycles since the last (re)start.
-  int age() const { return age_; }
 
  private:
   EstimatorConfig::Temporal config_;
   bool initialised_ = false;
-  int age_ = 0;
   int64_t stamp_ns_ = 0;
   Eigen::Matrix<double, 6, 1> x_;  ///< origin, velocity
   Eigen::Matrix<double, 6, 6> P_;
