@@ -627,6 +627,42 @@ TEST(PoseEstimator, HorizontalAndHangingWithClutterAndOneCamera) {
   checkScene(single, {ring({5, 5, 1.0}, 5.5, 4.5)[0]}, opt, 0.025, 3.0 * kDeg);
 }
 
+TEST(PoseEstimator, TracksBetweenFullDecisionsAndRedecidesAfterAJump) {
+  // Cycles 33 ms apart: the first decides, the next ones follow the track until
+  // tracking.redecide_every; a joint that jumps 0.3 m breaks the track (a full decision, no
+  // wrong pose); tracking off decides every cycle.
+  for (const bool enabled : {true, false}) {
+    SCOPED_TRACE(enabled ? "tracking on" : "tracking off");
+    EstimatorConfig cfg = testConfig();
+    cfg.tracking.enabled = enabled;
+    cfg.temporal.enabled = false;  // the raw per-cycle poses are checked
+    PoseEstimator est(cfg);
+    const int n = cfg.tracking.redecide_every + 3;
+    for (int k = 0; k < n; ++k) {
+      SCOPED_TRACE("cycle " + std::to_string(k));
+      const bool jumped = k >= n - 2;
+      Scene scene;
+      scene.joints.push_back(makeJoint(
+          EndLabel::kBoxEnd, poseAt({4.694, 5.3 + (jumped ? 0.3 : 0.0), 1.23}, {0, 0, 1})));
+      RenderOptions opt;
+      opt.noise_scale = 1.0;
+      opt.seed = 100 + k;
+      auto inputs = renderAll(scene, ring({5, 5, 1.0}, 5.5, 4.5), opt);
+      for (auto& in : inputs) in.frame.stamp_ns = 1000000000LL + k * 33000000LL;
+      const CycleResult r = est.process(inputs);
+      const EndEstimate& e = r.end(EndLabel::kBoxEnd);
+      ASSERT_TRUE(e.valid) << describe(e);
+      const PoseError err = poseError(scene.joints[0].T_world_end, e.T_world_end);
+      EXPECT_LT(err.position_norm, 0.012) << describe(e);
+      EXPECT_LT(err.axis_angle, 1.0 * kDeg) << describe(e);
+      // Decisions: cycle 0, cycle redecide_every, and the jump's first cycle.
+      const bool decides =
+          !enabled || k == 0 || k == cfg.tracking.redecide_every || k == n - 2;
+      EXPECT_EQ(e.tracked, !decides) << describe(e);
+    }
+  }
+}
+
 TEST(PoseEstimator, SwappedLabelsAreCorrectedByGeometry) {
   Scene scene;
   scene.joints.push_back(makeJoint(EndLabel::kBoxEnd, poseAt({4.694, 5.3, 1.23}, {0, 0, 1})));

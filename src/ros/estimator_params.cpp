@@ -59,6 +59,9 @@ EstimatorConfig loadEstimatorConfig(const ros::NodeHandle& pnh) {
   readNumber(pnh, "profile_fit/huber", c.profile_fit.huber, 0.0);
   readNumber(pnh, "profile_fit/label_margin", c.profile_fit.label_margin, 0.0);
   readNumber(pnh, "profile_fit/search_points", c.profile_fit.search_points, 1.0);
+  readNumber(pnh, "profile_fit/coarse_points", c.profile_fit.coarse_points, 1.0);
+  readNumber(pnh, "profile_fit/polish_iterations", c.profile_fit.polish_iterations, 1.0);
+  readNumber(pnh, "profile_fit/hypothesis_iterations", c.profile_fit.hypothesis_iterations, 1.0);
   readNumber(pnh, "profile_fit/max_rms", c.profile_fit.max_rms, 0.0);
   readNumber(pnh, "profile_fit/min_inlier_fraction", c.profile_fit.min_inlier_fraction, 0.0);
   readNumber(pnh, "profile_fit/max_axial_std", c.profile_fit.max_axial_std, 0.0);
@@ -79,6 +82,7 @@ EstimatorConfig loadEstimatorConfig(const ros::NodeHandle& pnh) {
   readNumber(pnh, "free_space/decision_step", c.free_space.decision_step, 1e-4);
   readNumber(pnh, "free_space/axial_step", c.free_space.axial_step, 1e-4);
   readNumber(pnh, "free_space/min_direction_margin", c.free_space.min_direction_margin, 0.0);
+  readNumber(pnh, "free_space/min_axial_contrast", c.free_space.min_axial_contrast, 0.0);
 
   readNumber(pnh, "noise/scale", c.noise.scale, 0.0);
   readNumber(pnh, "noise/min_sigma", c.noise.min_sigma, 0.0);
@@ -89,6 +93,12 @@ EstimatorConfig loadEstimatorConfig(const ros::NodeHandle& pnh) {
   readNumber(pnh, "temporal/max_speed", c.temporal.max_speed, 0.0);
   readNumber(pnh, "temporal/gate_sigma", c.temporal.gate_sigma, 0.0);
   readNumber(pnh, "temporal/max_gap", c.temporal.max_gap, 0.0);
+  readParam(pnh, "tracking/enabled", c.tracking.enabled);
+  readNumber(pnh, "tracking/redecide_every", c.tracking.redecide_every, 1.0);
+  readNumber(pnh, "tracking/max_gap", c.tracking.max_gap, 0.0);
+  readNumber(pnh, "tracking/max_angle", c.tracking.max_angle, 0.0);
+  readNumber(pnh, "tracking/max_offset", c.tracking.max_offset, 0.0);
+  readNumber(pnh, "tracking/max_prediction", c.tracking.max_prediction, 0.0);
 
   readNumber(pnh, "covariance/inflation", c.covariance.inflation, 0.0);
   readNumber(pnh, "covariance/min_lateral_std", c.covariance.min_lateral_std, 0.0);

@@ -90,6 +90,9 @@ void validateConfig(const EstimatorConfig& c) {
   finite_positive(c.free_space.decision_step, "free_space.decision_step");
   finite_positive(c.free_space.axial_step, "free_space.axial_step");
   non_negative(c.free_space.min_direction_margin, "free_space.min_direction_margin");
+  if (!std::isfinite(c.free_space.min_axial_contrast))
+    fail("estimator config: free_space.min_axial_contrast = ", c.free_space.min_axial_contrast,
+         " must be finite");
   finite_positive(c.noise.scale, "noise.scale");
   finite_positive(c.noise.min_sigma, "noise.min_sigma");
   finite_positive(c.temporal.acceleration_density, "temporal.acceleration_density");
@@ -97,6 +100,22 @@ void validateConfig(const EstimatorConfig& c) {
   finite_positive(c.temporal.max_speed, "temporal.max_speed");
   finite_positive(c.temporal.gate_sigma, "temporal.gate_sigma");
   finite_positive(c.temporal.max_gap, "temporal.max_gap");
+  if (c.tracking.redecide_every < 1)
+    fail("estimator config: tracking.redecide_every = ", c.tracking.redecide_every,
+         " must be >= 1");
+  finite_positive(c.tracking.max_gap, "tracking.max_gap");
+  finite_positive(c.tracking.max_angle, "tracking.max_angle");
+  finite_positive(c.tracking.max_offset, "tracking.max_offset");
+  finite_positive(c.tracking.max_prediction, "tracking.max_prediction");
+  if (c.profile_fit.coarse_points < 20)
+    fail("estimator config: profile_fit.coarse_points = ", c.profile_fit.coarse_points,
+         " must be >= 20");
+  if (c.profile_fit.polish_iterations < 1)
+    fail("estimator config: profile_fit.polish_iterations = ", c.profile_fit.polish_iterations,
+         " must be >= 1");
+  if (c.profile_fit.hypothesis_iterations < 1)
+    fail("estimator config: profile_fit.hypothesis_iterations = ",
+         c.profile_fit.hypothesis_iterations, " must be >= 1");
   finite_positive(c.covariance.inflation, "covariance.inflation");
   non_negative(c.covariance.min_lateral_std, "covariance.min_lateral_std");
   non_negative(c.covariance.min_axial_std, "covariance.min_axial_std");

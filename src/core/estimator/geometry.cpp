@@ -281,6 +281,7 @@ ProfileModel::ProfileModel(EndLabel label, const ToolJointDimensions& dims) : la
       }
     }
     edges_.push_back({Eigen::Vector2d(a.z, a.r), Eigen::Vector2d(b.z, b.r)});
+    edge_r2_max_.push_back(std::max(a.r, b.r) * std::max(a.r, b.r));
   }
   // Distance grid and nearest-edge candidates per cell.
   g_res_ = 0.0025;
@@ -385,7 +386,8 @@ bool ProfileModel::rayHit(const Eigen::Vector3d& q, const Eigen::Vector3d& d, do
   const double dd = d.x() * d.x() + d.y() * d.y();
   double best = std::numeric_limits<double>::infinity();
   const Edge* hit = nullptr;
-  for (const Edge& e : edges_) {
+  for (size_t k_e = 0; k_e < edges_.size(); ++k_e) {
+    const Edge& e = edges_[k_e];
     const double za = e.a.x(), ra = e.a.y(), zb = e.b.x(), rb = e.b.y();
     const double z_lo = std::min(za, zb), z_hi = std::max(za, zb);
     if (std::abs(zb - za) < 1e-9) {
@@ -396,6 +398,25 @@ bool ProfileModel::rayHit(const Eigen::Vector3d& q, const Eigen::Vector3d& d, do
       const double r_lo = std::min(ra, rb), r_hi = std::max(ra, rb);
       if (r2 >= r_lo * r_lo && r2 <= r_hi * r_hi) best = s, hit = &e;
       continue;
+    }
+    // Cheap rejection: on the part of the ray inside the edge's z slab (and before the best hit
+    // so far), the ray never comes within the edge's largest radius.
+    {
+      double s0 = s_min, s1 = best;
+      if (std::abs(d.z()) > 1e-12) {
+        double a = (z_lo - q.z()) / d.z(), b = (z_hi - q.z()) / d.z();
+        if (a > b) std::swap(a, b);
+        s0 = std::max(s0, a - 1e-9);
+        s1 = std::min(s1, b + 1e-9);
+        if (!(s0 <= s1)) continue;
+      } else if (q.z() < z_lo - 1e-9 || q.z() > z_hi + 1e-9) {
+        continue;
+      }
+      double sc = dd > 1e-15 ? -qd / dd : s0;
+      sc = std::max(sc, s0);
+      if (std::isfinite(s1)) sc = std::min(sc, s1);
+      const double r2_min = qq + 2 * sc * qd + sc * sc * dd;
+      if (r2_min > edge_r2_max_[k_e] + 1e-9) continue;
     }
     const double k = (rb - ra) / (zb - za);
     const double w0 = ra + k * (q.z() - za), w1 = k * d.z();  // r(s) = w0 + w1 s
@@ -413,7 +434,7 @@ bool ProfileModel::rayHit(const Eigen::Vector3d& q, const Eigen::Vector3d& d, do
   if (!hit) return false;
   *s_out = best;
   const Eigen::Vector3d x = q + best * d;
-  const double r = std::hypot(x.x(), x.y());
+  const double r = std::sqrt(x.x() * x.x() + x.y() * x.y());
   *zr = Eigen::Vector2d(x.z(), r);
   const Eigen::Vector2d ab = (hit->b - hit->a).normalized();
   Eigen::Vector2d n(ab.y(), -ab.x());
@@ -575,15 +596,23 @@ ProfileFitResult refineProfile(const std::vector<Eigen::Vector3f>& points,
     if (last || n_used < 10) break;
     Eigen::Matrix<double, 5, 5> Hd = H;
     Hd.diagonal().array() += 1e-6 * Hd.diagonal().array() + 1e-3;
-    const Eigen::Matrix<double, 5, 1> delta = -Hd.ldlt().solve(g);
+    Eigen::Matrix<double, 5, 1> gd = g;
+    if (lock_axial) {  // solve for the other four
+      Hd.row(2).setZero();
+      Hd.col(2).setZero();
+      Hd(2, 2) = 1.0;
+      gd(2) = 0.0;
+    }
+    const Eigen::Matrix<double, 5, 1> delta = -Hd.ldlt().solve(gd);
     if (!delta.allFinite()) break;
     // Limit the step (robustness far from the optimum).
     const double step_t = delta.head<3>().norm(), step_r = delta.tail<2>().norm();
     const double scale =
         std::min({1.0, 0.05 / std::max(step_t, 1e-12), 0.1 / std::max(step_r, 1e-12)});
-    o += scale * (delta[0] * e1 + delta[1] * e2 + (lock_axial ? 0.0 : delta[2]) * z);
+    o += scale * (delta[0] * e1 + delta[1] * e2 + delta[2] * z);
     z = (z + scale * (delta[3] * e1 + delta[4] * e2)).normalized();
-    if (step_t < 2e-5 && step_r < 2e-5) {
+    // Converged: steps far below the noise (0.1 mm, 0.1 mrad).
+    if (step_t < 1e-4 && step_r < 1e-4) {
       it = iterations - 1;  // one more pass to evaluate H at the optimum
     }
   }
@@ -650,7 +679,7 @@ std::array<ProfileFitResult, 2> fitProfileHypotheses(const std::vector<Eigen::Ve
     double c = 0;
     const double s = axialSearch(ts, rs, sign, sm, config, &c);
     const Eigen::Vector3d z = sign * d0;
-    hyp[k] = refineProfile(points, sigmas, axis.point + s * z, z, model, config, config.iterations,
+    hyp[k] = refineProfile(points, sigmas, axis.point + s * z, z, model, config, config.hypothesis_iterations,
                            false, eyes);
   }
   return hyp;

@@ -35,6 +35,22 @@ struct Candidate {
   /// The position along the axis comes from the scan (locked in the refinement): the fit's
   /// covariance does not describe it.
   bool axial_from_scan = false;
+  /// With axial_from_scan: the rise of the scan's score 1 cm either side of its best position
+  /// (the smaller one), in score units (EstimatorConfig::FreeSpace).
+  double axial_contrast = 0.0;
+  /// The model and direction came from the end's track (no hypothesis decision this cycle).
+  bool tracked = false;
+};
+
+/// The last valid fit of the points of one detected label (EstimatorConfig::Tracking).
+struct Track {
+  bool valid = false;
+  EndLabel model = EndLabel::kBoxEnd;  ///< the model that fitted
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero(), z = Eigen::Vector3d::UnitZ();
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();  ///< [m/s] from the last two poses
+  int64_t stamp_ns = 0;
+  int cycles = 0;  ///< cycles since the last full decision (1 = this track's decision cycle)
+  double direction_margin = 0.0;
 };
 
 }  // namespace
@@ -47,6 +63,7 @@ struct PoseEstimator::Impl {
   std::array<std::vector<OrientedPoint>, kNumEnds> fs_samples;
   std::unique_ptr<ThesisBaseline> baseline;
   std::array<EndPoseFilter, kNumEnds> filters;
+  std::array<Track, kNumEnds> tracks;  ///< per detected label
 };
 
 PoseEstimator::PoseEstimator(const EstimatorConfig& config)
@@ -83,6 +100,7 @@ PoseEstimator::~PoseEstimator() = default;
 void PoseEstimator::reset() {
   if (impl_->baseline) impl_->baseline->reset();
   for (auto& f : impl_->filters) f.reset();
+  for (auto& t : impl_->tracks) t = Track();
 }
 
 /// 6x6 world covariance (x y z, rotation about world x y z) from a 5-DoF profile fit.
@@ -107,6 +125,13 @@ static Eigen::Matrix<double, 6, 6> worldCovariance(const ProfileFitResult& fit,
   C.block<3, 3>(0, 0) += R * pos_floor.asDiagonal() * R.transpose();
   C.block<3, 3>(3, 3) += R * rot_floor.asDiagonal() * R.transpose();
   return 0.5 * (C + C.transpose());
+}
+
+/// Reported std [m] of a fit's position along its axis.
+static double axialStd(const ProfileFitResult& fit, const EstimatorConfig::Covariance& c) {
+  const Eigen::Matrix<double, 6, 6> C = worldCovariance(fit, c);
+  const Eigen::Vector3d z = fit.z.normalized();
+  return std::sqrt(std::max(0.0, z.dot(C.topLeftCorner<3, 3>() * z)));
 }
 
 CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
@@ -189,25 +214,8 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
       cd.cams.push_back(carved[l][i].camera);
       cd.eyes.push_back(cams[carved[l][i].camera].T_world_depth.translation().cast<float>());
     }
-    // A floor or catwalk around the joint is not part of it: left out of the axis fit (the
-    // profile registration and the decision judge every point, with the same cost for all).
-    std::vector<Eigen::Vector3f> axis_pts;
-    for (size_t k : removeSupportPlane(cd.pts, config_.axis_fit)) axis_pts.push_back(cd.pts[k]);
-    if (axis_pts.size() < config_.axis_fit.min_points) {
-      seg_ms += msSince(t0);
-      cd.reason = std::to_string(axis_pts.size()) + " points left after removing the support plane";
-      continue;
-    }
-    const AxisFitResult axis =
-        fitCylinderAxis(axis_pts, config_.dims.tool_joint_od / 2, config_.axis_fit);
-    seg_ms += msSince(t0);
-    if (!axis.ok) {
-      cd.reason =
-          "cylinder-axis fit found no tool joint in " + std::to_string(cd.pts.size()) + " points";
-      continue;
-    }
-    t0 = Clock::now();
     const auto& fsc = config_.free_space;
+    const auto& trc = config_.tracking;
     const double T2 = config_.profile_fit.truncation * config_.profile_fit.truncation;
     // Symmetric score of a pose, in "unexplained measurement" units: every point costs its
     // truncated squared distance / truncation^2 (an unexplained point costs 1), every depth pixel
@@ -256,6 +264,67 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
       f->origin += best_d * f->z;
       return best;
     };
+    // The winner's fine position along the axis with the points of the trusted (unworn) part,
+    // then the 5-DoF refinement with projective (camera-ray) correspondences, which are unbiased
+    // by the depth noise at the joint's edges (closest-point matching pulls the end face outward).
+    // The coarse subsample (every stride-th point) of the end's points.
+    const size_t coarse_stride = std::max<size_t>(
+        1, (cd.pts.size() + config_.profile_fit.coarse_points - 1) / config_.profile_fit.coarse_points);
+    std::vector<Eigen::Vector3f> coarse_pts, coarse_eyes;
+    std::vector<float> coarse_sig;
+    for (size_t i = 0; i < cd.pts.size(); i += coarse_stride) {
+      coarse_pts.push_back(cd.pts[i]);
+      coarse_eyes.push_back(cd.eyes[i]);
+      coarse_sig.push_back(sig[i]);
+    }
+    // The winner's fine position along the axis with the points of the trusted (unworn) part,
+    // then the 5-DoF refinement with projective (camera-ray) correspondences, which are unbiased
+    // by the depth noise at the joint's edges (closest-point matching pulls the end face outward).
+    auto refineWinner = [&](int win) {
+      const ProfileModel& model = impl_->models[win];
+      const double z_trust = model.trustedMinZ(config_.profile_fit.wear_margin);
+      std::vector<Eigen::Vector3f> trusted, trusted_eyes;
+      for (size_t i = 0; i < coarse_pts.size(); ++i)
+        if ((coarse_pts[i].cast<double>() - cd.fit.origin).dot(cd.fit.z) > z_trust + 0.03) {
+          trusted.push_back(coarse_pts[i]);
+          trusted_eyes.push_back(coarse_eyes[i]);
+        }
+      ProfileFitResult f0 = cd.fit;
+      axialScan(win, trusted, &trusted_eyes, static_cast<double>(trusted.size()) * coarse_stride,
+                &f0, fsc.decision_step, fsc.axial_step, fsc.axial_step / 2, true);
+      // Refined with the position along the axis free and locked: the one with the lower
+      // truncated cost wins (the free one follows the end face's points, but can slide along a
+      // joint whose shoulder and nose the cameras barely see, leaving them as outliers). Each
+      // converges on the coarse subsample, then is polished on every point.
+      auto refine = [&](bool lock) {
+        const ProfileFitResult c =
+            refineProfile(coarse_pts, coarse_sig, f0.origin, f0.z, model, config_.profile_fit,
+                          config_.profile_fit.iterations, lock, &coarse_eyes);
+        if (!c.ok || coarse_stride == 1) return c;
+        return refineProfile(cd.pts, sig, c.origin, c.z, model, config_.profile_fit,
+                             config_.profile_fit.polish_iterations, lock, &cd.eyes);
+      };
+      ProfileFitResult f = refine(false);
+      const ProfileFitResult fl = refine(true);
+      // When no point carries information along the axis (all of them on the tong's cylinder:
+      // a reported axial std of metres), the position along it is the scan's, and the fit's
+      // covariance does not describe it. Weak information is left to the gate below.
+      cd.axial_from_scan = f.ok && axialStd(f, config_.covariance) > 1.0;
+      if (fl.ok && (!f.ok || fl.cost < f.cost || cd.axial_from_scan)) f = fl;
+      if (cd.axial_from_scan) {
+        // How sharply the scan's score pins the position: the smaller rise at +-1 cm.
+        const double n_sc = static_cast<double>(trusted.size()) * coarse_stride;
+        const double c0 = poseScore(win, trusted, &trusted_eyes, n_sc, f0.origin, f0.z);
+        const double step = 0.01;
+        cd.axial_contrast =
+            std::min(poseScore(win, trusted, &trusted_eyes, n_sc, f0.origin - step * f0.z, f0.z),
+                     poseScore(win, trusted, &trusted_eyes, n_sc, f0.origin + step * f0.z, f0.z)) -
+            c0;
+      }
+      if (f.ok) cd.fit = f;
+      return f.ok;
+    };
+
     // Points of the decision scans (deterministic subsample), scaled to the full count.
     std::vector<Eigen::Vector3f> scan_pts;
     {
@@ -263,61 +332,88 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
       for (size_t i = 0; i < cd.pts.size(); i += st) scan_pts.push_back(cd.pts[i]);
     }
     const double n_scale = static_cast<double>(cd.pts.size());
-    // Both models x both axis directions, each at its best position along the axis.
-    std::array<ProfileFitResult, kNumEnds> fits;
-    std::array<double, kNumEnds> cost{};
-    std::array<double, kNumEnds> flip_cost{};
-    for (int m = 0; m < kNumEnds; ++m) {
-      auto hyp = fitProfileHypotheses(
-          cd.pts, sig, axis.axis, impl_->models[m], config_.profile_fit,
-          config_.profile_fit.long_tong_search ? &impl_->search_models[m] : nullptr);
-      std::array<double, 2> c{
-          {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()}};
-      for (int k = 0; k < 2; ++k)
-        if (hyp[k].ok)
-          c[k] = fsc.enabled && fsc.axial_scan
-                     ? axialScan(m, scan_pts, nullptr, n_scale, &hyp[k], fsc.axial_range,
-                                 fsc.decision_step, 0.0, true)
-                     : poseScore(m, scan_pts, nullptr, n_scale, hyp[k].origin, hyp[k].z);
-      const int k = c[0] <= c[1] ? 0 : 1;
-      fits[m] = hyp[k];
-      cost[m] = c[k];
-      flip_cost[m] = c[1 - k];
+
+    // Tracking: the last cycle's pose of this label, moved on by its velocity, gives the model,
+    // the axis direction and the start of the refinement; the track holds while the refined pose
+    // stays within tracking.max_angle / max_offset of that prediction.
+    Track& tr = impl_->tracks[l];
+    const double gap_s = static_cast<double>(cycle_stamp_ns - tr.stamp_ns) * 1e-9;
+    cd.tracked = trc.enabled && fsc.enabled && fsc.axial_scan && tr.valid && gap_s > 0 &&
+                 gap_s <= trc.max_gap && tr.cycles < trc.redecide_every;
+    if (cd.tracked) {
+      t0 = Clock::now();
+      Eigen::Vector3d move = tr.velocity * gap_s;
+      if (move.norm() > trc.max_prediction) move *= trc.max_prediction / move.norm();
+      const Eigen::Vector3d pred = tr.origin + move;
+      cd.fit = ProfileFitResult();
+      cd.fit.ok = true;
+      cd.fit.label = tr.model;
+      cd.fit.origin = pred;
+      cd.fit.z = tr.z;
+      cd.direction_margin = tr.direction_margin;
+      // The position along the axis as in the decision (free-space evidence over +-axial_range):
+      // starting the fine scan from the last pose alone lets the axial position random-walk.
+      axialScan(static_cast<int>(tr.model), scan_pts, nullptr, n_scale, &cd.fit, fsc.axial_range,
+                fsc.decision_step, 0.0, true);
+      const bool refined = refineWinner(static_cast<int>(tr.model));
+      const Eigen::Vector3d q = cd.fit.origin - pred;
+      cd.tracked = refined &&
+                   std::acos(std::clamp(cd.fit.z.dot(tr.z), -1.0, 1.0)) <= trc.max_angle &&
+                   (q - q.dot(tr.z) * tr.z).norm() <= trc.max_offset &&
+                   std::abs(q.dot(tr.z)) <= trc.max_offset;
+      reg_ms += msSince(t0);
     }
-    const int other = 1 - l;
-    int win = l;
-    if (cost[other] < (1.0 - config_.profile_fit.label_margin) * cost[l]) win = other;
-    cd.fit = fits[win];
-    cd.direction_margin = flip_cost[win] - cost[win];
-    if (cd.fit.ok && fsc.enabled && fsc.axial_scan) {
-      // Fine position along the axis with the points of the trusted (unworn) part, then the
-      // 5-DoF refinement with projective (camera-ray) correspondences, which are unbiased by the
-      // depth noise at the joint's edges (closest-point matching pulls the end face outward).
-      const ProfileModel& model = impl_->models[win];
-      const double z_trust = model.trustedMinZ(config_.profile_fit.wear_margin);
-      std::vector<Eigen::Vector3f> trusted, trusted_eyes;
-      for (size_t i = 0; i < cd.pts.size(); ++i)
-        if ((cd.pts[i].cast<double>() - cd.fit.origin).dot(cd.fit.z) > z_trust + 0.03) {
-          trusted.push_back(cd.pts[i]);
-          trusted_eyes.push_back(cd.eyes[i]);
-        }
-      ProfileFitResult f0 = cd.fit;
-      axialScan(win, trusted, &trusted_eyes, static_cast<double>(trusted.size()), &f0,
-                fsc.decision_step, fsc.axial_step, fsc.axial_step / 2, true);
-      // Refined with the position along the axis free and locked: the one with the lower
-      // truncated cost wins (the free one follows the end face's points, but can slide along a
-      // joint whose shoulder and nose the cameras barely see, leaving them as outliers).
-      const int its = config_.profile_fit.iterations;
-      ProfileFitResult f =
-          refineProfile(cd.pts, sig, f0.origin, f0.z, model, config_.profile_fit, its, false, &cd.eyes);
-      const ProfileFitResult fl =
-          refineProfile(cd.pts, sig, f0.origin, f0.z, model, config_.profile_fit, its, true, &cd.eyes);
-      if (fl.ok && (!f.ok || fl.cost < f.cost)) f = fl;
-      // Locked, or free but not moved along the axis (no point carries axial information).
-      cd.axial_from_scan = std::abs((f.origin - f0.origin).dot(f0.z)) < 1e-6;
-      if (f.ok) cd.fit = f;
+    if (!cd.tracked) {
+      // A floor or catwalk around the joint is not part of it: left out of the axis fit (the
+      // profile registration and the decision judge every point, with the same cost for all).
+      t0 = Clock::now();
+      std::vector<Eigen::Vector3f> axis_pts;
+      for (size_t k : removeSupportPlane(cd.pts, config_.axis_fit)) axis_pts.push_back(cd.pts[k]);
+      if (axis_pts.size() < config_.axis_fit.min_points) {
+        seg_ms += msSince(t0);
+        cd.reason =
+            std::to_string(axis_pts.size()) + " points left after removing the support plane";
+        continue;
+      }
+      const AxisFitResult axis =
+          fitCylinderAxis(axis_pts, config_.dims.tool_joint_od / 2, config_.axis_fit);
+      seg_ms += msSince(t0);
+      if (!axis.ok) {
+        cd.reason =
+            "cylinder-axis fit found no tool joint in " + std::to_string(cd.pts.size()) + " points";
+        continue;
+      }
+      t0 = Clock::now();
+      // Both models x both axis directions, each at its best position along the axis.
+      std::array<ProfileFitResult, kNumEnds> fits;
+      std::array<double, kNumEnds> cost{};
+      std::array<double, kNumEnds> flip_cost{};
+      for (int m = 0; m < kNumEnds; ++m) {
+        // Refined on the coarse subsample: they only need to be close enough for the decision.
+        auto hyp = fitProfileHypotheses(
+            coarse_pts, coarse_sig, axis.axis, impl_->models[m], config_.profile_fit,
+            config_.profile_fit.long_tong_search ? &impl_->search_models[m] : nullptr);
+        std::array<double, 2> c{
+            {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()}};
+        for (int k = 0; k < 2; ++k)
+          if (hyp[k].ok)
+            c[k] = fsc.enabled && fsc.axial_scan
+                       ? axialScan(m, scan_pts, nullptr, n_scale, &hyp[k], fsc.axial_range,
+                                   fsc.decision_step, 0.0, true)
+                       : poseScore(m, scan_pts, nullptr, n_scale, hyp[k].origin, hyp[k].z);
+        const int k = c[0] <= c[1] ? 0 : 1;
+        fits[m] = hyp[k];
+        cost[m] = c[k];
+        flip_cost[m] = c[1 - k];
+      }
+      const int other = 1 - l;
+      int win = l;
+      if (cost[other] < (1.0 - config_.profile_fit.label_margin) * cost[l]) win = other;
+      cd.fit = fits[win];
+      cd.direction_margin = flip_cost[win] - cost[win];
+      if (cd.fit.ok && fsc.enabled && fsc.axial_scan) refineWinner(win);
+      reg_ms += msSince(t0);
     }
-    reg_ms += msSince(t0);
     if (!cd.fit.ok) {
       cd.reason = "model registration failed";
       continue;
@@ -338,12 +434,20 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
       cd.reason = s.str();
       continue;
     }
+    if (cd.axial_from_scan && cd.axial_contrast < fsc.min_axial_contrast) {
+      std::ostringstream s;
+      s << "position along the axis not determined: no point constrains it, and the scan's "
+           "score 1 cm away differs by only "
+        << cd.axial_contrast << " (< free_space.min_axial_contrast = " << fsc.min_axial_contrast
+        << ")";
+      cd.reason = s.str();
+      continue;
+    }
     {
       // A pose the points do not pin down (dark steel: the shoulder and the taper drop out) is
       // not published: its reported uncertainty says so.
       const Eigen::Matrix<double, 6, 6> C = worldCovariance(cd.fit, config_.covariance);
-      const Eigen::Vector3d z = cd.fit.z.normalized();
-      const double axial_std = std::sqrt(std::max(0.0, z.dot(C.topLeftCorner<3, 3>() * z)));
+      const double axial_std = axialStd(cd.fit, config_.covariance);
       const Eigen::Vector3d e1 = cd.fit.basis.col(0), e2 = cd.fit.basis.col(1);
       const double tilt_std = std::sqrt(
           std::max(0.0, 0.5 * (e1.dot(C.bottomRightCorner<3, 3>() * e1) +
@@ -363,6 +467,31 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
   }
   result.timing.segmentation_ms = seg_ms;
   result.timing.registration_ms = reg_ms;
+  // Tracks follow each label's valid fits; a label without one ends its track.
+  for (int l = 0; l < kNumEnds; ++l) {
+    Track& tr = impl_->tracks[l];
+    const Candidate& cd = cand[l];
+    if (!cd.ok) {
+      tr.valid = false;
+      continue;
+    }
+    const double gap_s = static_cast<double>(cycle_stamp_ns - tr.stamp_ns) * 1e-9;
+    // The velocity follows a continuing track only; a jump (a re-decided pose far from the
+    // track's prediction) restarts it from zero.
+    const bool continues =
+        tr.valid && gap_s > 0 && gap_s <= config_.tracking.max_gap &&
+        tr.model == cd.fit.label && tr.z.dot(cd.fit.z) > 0 &&
+        (cd.fit.origin - (tr.origin + tr.velocity * gap_s)).norm() <= config_.tracking.max_offset;
+    tr.velocity = continues ? Eigen::Vector3d((cd.fit.origin - tr.origin) / gap_s)
+                            : Eigen::Vector3d::Zero();
+    tr.cycles = cd.tracked ? tr.cycles + 1 : 1;
+    if (!cd.tracked) tr.direction_margin = cd.direction_margin;
+    tr.valid = true;
+    tr.model = cd.fit.label;
+    tr.origin = cd.fit.origin;
+    tr.z = cd.fit.z;
+    tr.stamp_ns = cycle_stamp_ns;
+  }
 
   // Assign candidates to ends by the model that fits; the detected label wins a tie.
   std::array<int, kNumEnds> owner{{-1, -1}};
@@ -400,6 +529,7 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
     e.valid = true;
     e.reason.clear();
     e.label_corrected = l != slot;
+    e.tracked = cd.tracked;
     e.T_world_end = canonicalPose(cd.fit.origin, cd.fit.z);
     e.covariance = worldCovariance(cd.fit, config_.covariance);
     e.residual = cd.fit.rms;

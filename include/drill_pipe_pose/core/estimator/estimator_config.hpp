@@ -86,11 +86,17 @@ struct EstimatorConfig {
     /// [m] only the part of the tong within (tong length - wear_margin) of the shoulder is trusted
     /// in the refinement (worn joints are up to 20 mm shorter than nominal).
     double wear_margin = 0.03;
-    int iterations = 12;  ///< IRLS Gauss-Newton iterations
+    int iterations = 12;  ///< IRLS Gauss-Newton iterations of the final refinement
+    int hypothesis_iterations = 8;  ///< of each hypothesis before the decision
     double huber = 2.0;   ///< Huber threshold in units of the point's noise sigma
     /// A detection's label is replaced when the other model's cost is lower by this fraction.
     double label_margin = 0.15;
     size_t search_points = 250;  ///< points used in the 1-DoF axial search
+    /// Points (deterministic subsample) of the coarse stages: the hypotheses' refinement, the
+    /// winner's fine axial scan and its first refinement iterations; the last
+    /// `polish_iterations` use every point.
+    size_t coarse_points = 400;
+    int polish_iterations = 3;
     size_t max_points = 3000;    ///< larger end clouds are subsampled (deterministically)
     /// Search the axial position with a 0.3 m longer tong (no pull from a worn joint's taper).
     bool long_tong_search = false;
@@ -126,6 +132,12 @@ struct EstimatorConfig {
     /// The end is invalid (not published) when the flipped axis direction of the winning model
     /// scores less than this much worse (unexplained-point units): reject rather than guess.
     double min_direction_margin = 20.0;
+    /// When no point constrains the position along the axis (a hanging end seen from above:
+    /// only the tong's cylinder), the position is the scan's. It is trusted only when the
+    /// score 1 cm either side of it is at least this much higher than at it; a position that
+    /// the score contradicts (lower by more than 8 units 1 cm away) is invalid. Measured on the
+    /// simulator: hanging pins (stabbing) go down to -7, the flipped poses of dark_steel to -10.
+    double min_axial_contrast = -8.0;
   } free_space;
 
   /// Depth noise model (Fankhauser et al. 2015, head-on): sigma = scale * (1.5 - 0.5 z + 0.3 z^2)
@@ -161,6 +173,22 @@ struct EstimatorConfig {
     /// [s] a longer gap between measurements restarts the filter.
     double max_gap = 0.5;
   } temporal;
+
+  /// Tracking: while a label's last cycle gave a valid pose, this cycle starts from it (moved on
+  /// by its velocity) with its model and axis direction, and skips the cylinder-axis fit, the
+  /// hypothesis search and the model/direction decision (most of a cycle's time). The full
+  /// decision runs again when the refined pose leaves the prediction by more than max_angle or
+  /// max_offset, after a gap, at least every `redecide_every` cycles of a track, and always
+  /// when tracking is off.
+  struct Tracking {
+    bool enabled = true;
+    int redecide_every = 10;   ///< cycles between full decisions of a continuing track
+    double max_gap = 0.5;      ///< [s] a longer gap since the track's last pose ends it
+    double max_angle = 0.08;   ///< [rad] largest angle between the refined axis and the track's
+    double max_offset = 0.04;  ///< [m] largest move of the refined origin from the prediction
+    /// [m] largest move of the prediction (velocity from the last two poses times the gap)
+    double max_prediction = 0.05;
+  } tracking;
 
   /// thesis_baseline parameters (thesis chapter 3.4).
   struct Baseline {

@@ -41,6 +41,9 @@ struct EndEstimate {
   std::vector<std::string> cameras;  ///< cameras that contributed inlier points
   /// True when the detections said the other label and the geometry overruled them.
   bool label_corrected = false;
+  /// The model and the axis direction came from this end's track (EstimatorConfig::Tracking):
+  /// no full decision this cycle.
+  bool tracked = false;
 };
 
 struct CycleTiming {
@@ -58,8 +61,9 @@ struct CycleResult {
   const EndEstimate& end(EndLabel l) const { return ends[static_cast<int>(l)]; }
 };
 
-/// The pipeline. Not thread-safe (one instance per thread); keeps state only for the
-/// thesis_baseline (its concatenated layers and last model poses).
+/// The pipeline. Not thread-safe (one instance per thread); keeps state across cycles for the
+/// tracks and temporal filters of the ends and for the thesis_baseline (its concatenated layers
+/// and last model poses); reset() clears it.
 class PoseEstimator {
  public:
   /// Validates the configuration (throws InputError naming the key) and builds the models.

@@ -117,6 +117,7 @@ class ProfileModel {
   };
   EndLabel label_ = EndLabel::kBoxEnd;
   std::vector<Edge> edges_;
+  std::vector<double> edge_r2_max_;  ///< per edge, its largest radius squared
   double tong_length_ = 0.0, z_min_ = 0.0, z_max_ = 0.0;
   // Distance grid.
   double g_z0_ = 0, g_r0_ = 0, g_res_ = 0.0025;
