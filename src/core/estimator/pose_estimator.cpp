@@ -237,15 +237,21 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
     // Scan of the position along the axis (origin + delta z) minimising poseScore: a coarse pass
     // over +-range at `step`, then +-step at step / 2 (or finer when `fine` > 0). With
     // `coarse_points_only` the coarse pass ranks positions by the points' cost alone and the
-    // seen-through pixels are counted in the fine pass only (a quarter of the projections).
+    // seen-through pixels are counted in the fine pass only (a quarter of the projections);
+    // with `points_only` they are not counted at all.
     auto axialScan = [&](int m, const std::vector<Eigen::Vector3f>& P,
                          const std::vector<Eigen::Vector3f>* E, double n_scale,
                          ProfileFitResult* f, double range, double step, double fine,
-                         bool coarse_points_only) {
+                         bool coarse_points_only, bool points_only = false) {
+      auto pointsScore = [&](const Eigen::Vector3d& o) {
+        return profileCost(P, impl_->models[m], o, f->z, config_.profile_fit.truncation, E);
+      };
       auto coarseScore = [&](const Eigen::Vector3d& o) {
-        return coarse_points_only ? profileCost(P, impl_->models[m], o, f->z,
-                                                config_.profile_fit.truncation, E)
-                                  : poseScore(m, P, E, n_scale, o, f->z);
+        return coarse_points_only || points_only ? pointsScore(o)
+                                                 : poseScore(m, P, E, n_scale, o, f->z);
+      };
+      auto fineScore = [&](const Eigen::Vector3d& o) {
+        return points_only ? pointsScore(o) : poseScore(m, P, E, n_scale, o, f->z);
       };
       double best_d = 0, best = coarseScore(f->origin);
       for (double d = -range; d <= range + 1e-9; d += step) {
@@ -255,18 +261,15 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
       }
       const double fs = fine > 0 ? fine : step / 2;
       const double d0 = best_d;
-      if (coarse_points_only) best = poseScore(m, P, E, n_scale, f->origin + d0 * f->z, f->z);
+      if (coarse_points_only && !points_only) best = fineScore(f->origin + d0 * f->z);
       for (double d = d0 - step + fs; d < d0 + step - 1e-9; d += fs) {
         if (std::abs(d - d0) < 1e-9) continue;
-        const double c = poseScore(m, P, E, n_scale, f->origin + d * f->z, f->z);
+        const double c = fineScore(f->origin + d * f->z);
         if (c < best) best = c, best_d = d;
       }
       f->origin += best_d * f->z;
       return best;
     };
-    // The winner's fine position along the axis with the points of the trusted (unworn) part,
-    // then the 5-DoF refinement with projective (camera-ray) correspondences, which are unbiased
-    // by the depth noise at the joint's edges (closest-point matching pulls the end face outward).
     // The coarse subsample (every stride-th point) of the end's points.
     const size_t coarse_stride = std::max<size_t>(
         1, (cd.pts.size() + config_.profile_fit.coarse_points - 1) / config_.profile_fit.coarse_points);
@@ -277,7 +280,8 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
       coarse_eyes.push_back(cd.eyes[i]);
       coarse_sig.push_back(sig[i]);
     }
-    // The winner's fine position along the axis with the points of the trusted (unworn) part,
+    // The winner's fine position along the axis with the points of the trusted (unworn) part
+    // (the points alone: at this scale the seen-through pixels add noise, not information),
     // then the 5-DoF refinement with projective (camera-ray) correspondences, which are unbiased
     // by the depth noise at the joint's edges (closest-point matching pulls the end face outward).
     auto refineWinner = [&](int win) {
@@ -291,7 +295,7 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
         }
       ProfileFitResult f0 = cd.fit;
       axialScan(win, trusted, &trusted_eyes, static_cast<double>(trusted.size()) * coarse_stride,
-                &f0, fsc.decision_step, fsc.axial_step, fsc.axial_step / 2, true);
+                &f0, fsc.decision_step, fsc.axial_step, fsc.axial_step / 2, true, true);
       // Refined with the position along the axis free and locked: the one with the lower
       // truncated cost wins (the free one follows the end face's points, but can slide along a
       // joint whose shoulder and nose the cameras barely see, leaving them as outliers). Each
