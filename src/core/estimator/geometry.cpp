@@ -551,6 +551,10 @@ ProfileFitResult refineProfile(const std::vector<Eigen::Vector3f>& points,
   Eigen::Matrix<double, 5, 5> H_last = Eigen::Matrix<double, 5, 5>::Zero();
   double chi2 = 0;
   size_t n_used = 0;
+  // Statistics over all points at the pass's pose (the last pass's are the result's).
+  res.inlier_mask.assign(points.size(), 0);
+  double cost = 0, ss = 0;
+  size_t inl = 0;
   for (int it = 0; it < iterations + 1; ++it) {
     const bool last = it == iterations;
     Eigen::Vector3d e1, e2;
@@ -559,7 +563,21 @@ ProfileFitResult refineProfile(const std::vector<Eigen::Vector3f>& points,
     Eigen::Matrix<double, 5, 1> g = Eigen::Matrix<double, 5, 1>::Zero();
     chi2 = 0;
     n_used = 0;
+    cost = ss = 0;
+    inl = 0;
     for (size_t i = 0; i < pts.size(); ++i) {
+      Eigen::Vector2d gr;
+      bool hit = false;
+      const double e = profileResidual(model, pts[i], o, z, e1, e2, eyes ? &(*eyes)[i] : nullptr,
+                                       &gr, &hit);
+      const double d = std::abs(e);
+      cost += std::min(d * d, T2);
+      const double gate = std::min(T, std::max(0.01, 3.0 * sigmas[i]));
+      res.inlier_mask[i] = d < gate;
+      if (d < gate) {
+        ss += d * d;
+        ++inl;
+      }
       const Eigen::Vector3d q = pts[i] - o;
       const double zc = q.dot(z);
       // Beyond the trusted tong (worn joints are shorter): the radius still fixes the axis
@@ -568,11 +586,6 @@ ProfileFitResult refineProfile(const std::vector<Eigen::Vector3f>& points,
       const Eigen::Vector3d qp = q - zc * z;
       const double rc = qp.norm();
       if (rc < 1e-9) continue;
-      Eigen::Vector2d gr;
-      bool hit = false;
-      const double e = profileResidual(model, pts[i], o, z, e1, e2, eyes ? &(*eyes)[i] : nullptr,
-                                       &gr, &hit);
-      const double d = std::abs(e);
       if (d > T) continue;
       // A ray that misses the model: a silhouette pixel (lateral noise, mixed pixels) whose
       // closest model point is not what it measured; it does not steer the fit.
@@ -593,6 +606,8 @@ ProfileFitResult refineProfile(const std::vector<Eigen::Vector3f>& points,
       ++n_used;
     }
     H_last = H;
+    res.origin = o;
+    res.z = z;
     if (last || n_used < 10) break;
     Eigen::Matrix<double, 5, 5> Hd = H;
     Hd.diagonal().array() += 1e-6 * Hd.diagonal().array() + 1e-3;
@@ -617,26 +632,9 @@ ProfileFitResult refineProfile(const std::vector<Eigen::Vector3f>& points,
     }
   }
   if (n_used < 10) return res;
-
-  // 3. Statistics over all points with the full model.
-  res.origin = o;
-  res.z = z;
-  res.inlier_mask.assign(points.size(), 0);
-  double cost = 0, ss = 0;
-  size_t inl = 0;
-  Eigen::Vector3d b1, b2;
-  orthoBasis(z, &b1, &b2);
-  for (size_t i = 0; i < pts.size(); ++i) {
-    const double d =
-        std::abs(profileResidual(model, pts[i], o, z, b1, b2, eyes ? &(*eyes)[i] : nullptr));
-    cost += std::min(d * d, T2);
-    const double gate = std::min(T, std::max(0.01, 3.0 * sigmas[i]));
-    if (d < gate) {
-      res.inlier_mask[i] = 1;
-      ss += d * d;
-      ++inl;
-    }
-  }
+  // 3. The result: the pose of the last pass (H and the statistics were evaluated there).
+  o = res.origin;
+  z = res.z;
   res.cost = cost / pts.size();
   res.inliers = inl;
   res.rms = inl ? std::sqrt(ss / inl) : 0.0;
