@@ -185,6 +185,9 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
 
   // 3. Segmentation: robust cylinder axis; 4. registration against both models.
   std::array<Candidate, kNumEnds> cand;
+  // A full decision already ran in this cycle: a track due for its periodic one waits a cycle
+  // (the two ends' decisions fall in different cycles, halving the slowest cycles' time).
+  bool decided_this_cycle = false;
   double seg_ms = 0, reg_ms = 0;
   for (int l = 0; l < kNumEnds; ++l) {
     Candidate& cd = cand[l];
@@ -342,8 +345,9 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
     // stays within tracking.max_angle / max_offset of that prediction.
     Track& tr = impl_->tracks[l];
     const double gap_s = static_cast<double>(cycle_stamp_ns - tr.stamp_ns) * 1e-9;
+    const int due = trc.redecide_every + (decided_this_cycle ? 1 : 0);
     cd.tracked = trc.enabled && fsc.enabled && fsc.axial_scan && tr.valid && gap_s > 0 &&
-                 gap_s <= trc.max_gap && tr.cycles < trc.redecide_every;
+                 gap_s <= trc.max_gap && tr.cycles < due;
     if (cd.tracked) {
       t0 = Clock::now();
       Eigen::Vector3d move = tr.velocity * gap_s;
@@ -416,6 +420,7 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
       cd.fit = fits[win];
       cd.direction_margin = flip_cost[win] - cost[win];
       if (cd.fit.ok && fsc.enabled && fsc.axial_scan) refineWinner(win);
+      decided_this_cycle = true;
       reg_ms += msSince(t0);
     }
     if (!cd.fit.ok) {

@@ -182,7 +182,9 @@ struct EstimatorConfig {
   /// when tracking is off.
   struct Tracking {
     bool enabled = true;
-    int redecide_every = 10;   ///< cycles between full decisions of a continuing track
+    /// Cycles between full decisions of a continuing track (one more when the other end
+    /// decided in that cycle, so that the two ends' decisions fall in different cycles).
+    int redecide_every = 10;
     double max_gap = 0.5;      ///< [s] a longer gap since the track's last pose ends it
     double max_angle = 0.08;   ///< [rad] largest angle between the refined axis and the track's
     double max_offset = 0.04;  ///< [m] largest move of the refined origin from the prediction
