@@ -677,8 +677,8 @@ std::array<ProfileFitResult, 2> fitProfileHypotheses(const std::vector<Eigen::Ve
     double c = 0;
     const double s = axialSearch(ts, rs, sign, sm, config, &c);
     const Eigen::Vector3d z = sign * d0;
-    hyp[k] = refineProfile(points, sigmas, axis.point + s * z, z, model, config, config.hypothesis_iterations,
-                           false, eyes);
+    hyp[k] = refineProfile(points, sigmas, axis.point + s * z, z, model, config,
+                           config.hypothesis_iterations, false, eyes);
   }
   return hyp;
 }

@@ -274,8 +274,8 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
       return best;
     };
     // The coarse subsample (every stride-th point) of the end's points.
-    const size_t coarse_stride = std::max<size_t>(
-        1, (cd.pts.size() + config_.profile_fit.coarse_points - 1) / config_.profile_fit.coarse_points);
+    const size_t n_coarse = config_.profile_fit.coarse_points;
+    const size_t coarse_stride = std::max<size_t>(1, (cd.pts.size() + n_coarse - 1) / n_coarse);
     std::vector<Eigen::Vector3f> coarse_pts, coarse_eyes;
     std::vector<float> coarse_sig;
     for (size_t i = 0; i < cd.pts.size(); i += coarse_stride) {
