@@ -278,15 +278,30 @@ double positionMahalanobis2(const EndEstimate& e, const Eigen::Isometry3d& truth
 // ---------------------------------------------------------------------------------------------
 
 TEST(EstimatorConfig, RejectsBadKeysByName) {
+  EXPECT_NO_THROW(validateConfig(EstimatorConfig()));
+  auto expectRejected = [](const EstimatorConfig& c, const std::string& key) {
+    try {
+      validateConfig(c);
+      FAIL() << "accepted a bad " << key;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(key), std::string::npos) << e.what();
+    }
+  };
   EstimatorConfig c;
-  EXPECT_NO_THROW(validateConfig(c));
   c.carving.min_cameras = 0;
-  try {
-    validateConfig(c);
-    FAIL() << "accepted carving.min_cameras = 0";
-  } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("carving.min_cameras"), std::string::npos) << e.what();
-  }
+  expectRejected(c, "carving.min_cameras");
+  c = EstimatorConfig();
+  c.tracking.redecide_every = 0;
+  expectRejected(c, "tracking.redecide_every");
+  c = EstimatorConfig();
+  c.tracking.max_offset = -0.1;
+  expectRejected(c, "tracking.max_offset");
+  c = EstimatorConfig();
+  c.profile_fit.coarse_points = 5;
+  expectRejected(c, "profile_fit.coarse_points");
+  c = EstimatorConfig();
+  c.free_space.min_axial_contrast = std::nan("");
+  expectRejected(c, "free_space.min_axial_contrast");
   EXPECT_THROW(parseEstimatorMethod("icp", "test"), InputError);
   EXPECT_EQ(parseEstimatorMethod("thesis_baseline", "test"), EstimatorMethod::kThesisBaseline);
 }

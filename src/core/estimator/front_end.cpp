@@ -27,6 +27,9 @@ void validateConfig(const EstimatorConfig& c) {
     if (!(v >= 0.0) || !std::isfinite(v))
       fail("estimator config: ", key, " = ", v, " must be >= 0");
   };
+  auto at_least = [](double v, double min, const char* key) {
+    if (!(v >= min)) fail("estimator config: ", key, " = ", v, " must be >= ", min);
+  };
   for (int i = 0; i < 3; ++i)
     if (!(c.work_zone.min[i] < c.work_zone.max[i]))
       fail("estimator config: work_zone.min[", i, "] = ", c.work_zone.min[i],
@@ -39,43 +42,33 @@ void validateConfig(const EstimatorConfig& c) {
   if (!(c.cutout.max_range > c.cutout.min_range))
     fail("estimator config: cutout.max_range = ", c.cutout.max_range,
          " must be > cutout.min_range = ", c.cutout.min_range);
-  if (c.carving.min_cameras < 1)
-    fail("estimator config: carving.min_cameras = ", c.carving.min_cameras, " must be >= 1");
+  at_least(c.carving.min_cameras, 1, "carving.min_cameras");
   if (!(c.carving.vote_fraction >= 0.0 && c.carving.vote_fraction <= 1.0))
     fail("estimator config: carving.vote_fraction = ", c.carving.vote_fraction,
          " must be in [0, 1]");
   non_negative(c.carving.margin_px, "carving.margin_px");
-  if (c.axis_fit.min_points < 10)
-    fail("estimator config: axis_fit.min_points = ", c.axis_fit.min_points, " must be >= 10");
-  if (c.axis_fit.max_points < 20)
-    fail("estimator config: axis_fit.max_points = ", c.axis_fit.max_points, " must be >= 20");
+  at_least(c.axis_fit.min_points, 10, "axis_fit.min_points");
+  at_least(c.axis_fit.max_points, 20, "axis_fit.max_points");
   if (c.profile_fit.max_points < c.axis_fit.min_points)
     fail("estimator config: profile_fit.max_points = ", c.profile_fit.max_points,
          " must be >= axis_fit.min_points");
-  if (c.axis_fit.hypotheses < 0)
-    fail("estimator config: axis_fit.hypotheses = ", c.axis_fit.hypotheses, " must be >= 0");
+  at_least(c.axis_fit.hypotheses, 0, "axis_fit.hypotheses");
   finite_positive(c.axis_fit.neighbourhood, "axis_fit.neighbourhood");
   finite_positive(c.axis_fit.inlier_threshold, "axis_fit.inlier_threshold");
-  if (c.axis_fit.iterations < 1)
-    fail("estimator config: axis_fit.iterations = ", c.axis_fit.iterations, " must be >= 1");
+  at_least(c.axis_fit.iterations, 1, "axis_fit.iterations");
   finite_positive(c.profile_fit.search_step, "profile_fit.search_step");
   finite_positive(c.profile_fit.truncation, "profile_fit.truncation");
   non_negative(c.profile_fit.wear_margin, "profile_fit.wear_margin");
-  if (c.profile_fit.iterations < 1)
-    fail("estimator config: profile_fit.iterations = ", c.profile_fit.iterations, " must be >= 1");
+  at_least(c.profile_fit.iterations, 1, "profile_fit.iterations");
   finite_positive(c.profile_fit.huber, "profile_fit.huber");
   non_negative(c.profile_fit.label_margin, "profile_fit.label_margin");
-  if (c.profile_fit.search_points < 20)
-    fail("estimator config: profile_fit.search_points = ", c.profile_fit.search_points,
-         " must be >= 20");
+  at_least(c.profile_fit.search_points, 20, "profile_fit.search_points");
   finite_positive(c.profile_fit.max_rms, "profile_fit.max_rms");
   non_negative(c.profile_fit.min_inlier_fraction, "profile_fit.min_inlier_fraction");
   non_negative(c.cutout.edge_jump, "cutout.edge_jump");
   finite_positive(c.profile_fit.max_axial_std, "profile_fit.max_axial_std");
   finite_positive(c.profile_fit.max_tilt_std, "profile_fit.max_tilt_std");
-  if (c.axis_fit.plane_iterations < 0)
-    fail("estimator config: axis_fit.plane_iterations = ", c.axis_fit.plane_iterations,
-         " must be >= 0");
+  at_least(c.axis_fit.plane_iterations, 0, "axis_fit.plane_iterations");
   finite_positive(c.axis_fit.plane_threshold, "axis_fit.plane_threshold");
   non_negative(c.axis_fit.plane_min_fraction, "axis_fit.plane_min_fraction");
   non_negative(c.axis_fit.plane_min_extent, "axis_fit.plane_min_extent");
@@ -100,29 +93,20 @@ void validateConfig(const EstimatorConfig& c) {
   finite_positive(c.temporal.max_speed, "temporal.max_speed");
   finite_positive(c.temporal.gate_sigma, "temporal.gate_sigma");
   finite_positive(c.temporal.max_gap, "temporal.max_gap");
-  if (c.tracking.redecide_every < 1)
-    fail("estimator config: tracking.redecide_every = ", c.tracking.redecide_every,
-         " must be >= 1");
+  at_least(c.tracking.redecide_every, 1, "tracking.redecide_every");
   finite_positive(c.tracking.max_gap, "tracking.max_gap");
   finite_positive(c.tracking.max_angle, "tracking.max_angle");
   finite_positive(c.tracking.max_offset, "tracking.max_offset");
   finite_positive(c.tracking.max_prediction, "tracking.max_prediction");
-  if (c.profile_fit.coarse_points < 20)
-    fail("estimator config: profile_fit.coarse_points = ", c.profile_fit.coarse_points,
-         " must be >= 20");
-  if (c.profile_fit.polish_iterations < 1)
-    fail("estimator config: profile_fit.polish_iterations = ", c.profile_fit.polish_iterations,
-         " must be >= 1");
-  if (c.profile_fit.hypothesis_iterations < 1)
-    fail("estimator config: profile_fit.hypothesis_iterations = ",
-         c.profile_fit.hypothesis_iterations, " must be >= 1");
+  at_least(c.profile_fit.coarse_points, 20, "profile_fit.coarse_points");
+  at_least(c.profile_fit.polish_iterations, 1, "profile_fit.polish_iterations");
+  at_least(c.profile_fit.hypothesis_iterations, 1, "profile_fit.hypothesis_iterations");
   finite_positive(c.covariance.inflation, "covariance.inflation");
   non_negative(c.covariance.min_lateral_std, "covariance.min_lateral_std");
   non_negative(c.covariance.min_axial_std, "covariance.min_axial_std");
   non_negative(c.covariance.min_tilt_std, "covariance.min_tilt_std");
   finite_positive(c.covariance.roll_variance, "covariance.roll_variance");
-  if (c.baseline.layers < 1)
-    fail("estimator config: baseline.layers = ", c.baseline.layers, " must be >= 1");
+  at_least(c.baseline.layers, 1, "baseline.layers");
   finite_positive(c.baseline.square_size, "baseline.square_size");
   if (!(c.baseline.band_max_z > c.baseline.band_min_z))
     fail("estimator config: baseline.band_max_z must be > baseline.band_min_z");
