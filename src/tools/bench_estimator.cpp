@@ -3,10 +3,11 @@
 //
 //   rosrun drill_pipe_pose bench_estimator BAG [--method ours|thesis_baseline] [--max-cycles N]
 //       [--config estimator.yaml-like params are not read here: defaults + --work-zone]
-//       [--csv errors.csv] [--label NAME] [--skip-camera CAM] [--no-temporal]
+//       [--csv errors.csv] [--label NAME] [--skip-camera CAM] [--no-temporal] [--no-tracking]
 //
 // --skip-camera leaves one camera's frames out (a dead camera); --no-temporal turns the temporal
-// filter off (each cycle stands alone). Invalid ends are counted by reason.
+// filter off; --no-tracking makes every cycle run the full decision (with both, each cycle
+// stands alone). Invalid ends are counted by reason.
 //
 // Cycles are formed exactly as the node forms them (FrameSynchronizer), with each frame arriving
 // 10 ms after its capture stamp. TF comes from the bag's /tf_static and /tf.
@@ -39,7 +40,7 @@ namespace {
 
 void usage() {
   std::cerr << "usage: bench_estimator BAG [--method ours|thesis_baseline] [--max-cycles N] "
-               "[--work-zone x0 y0 z0 x1 y1 z1] [--csv FILE] [--label NAME] [--skip-camera CAM] [--no-temporal]\n";
+               "[--work-zone x0 y0 z0 x1 y1 z1] [--csv FILE] [--label NAME] [--skip-camera CAM] [--no-temporal] [--no-tracking]\n";
 }
 
 }  // namespace
@@ -71,6 +72,8 @@ int main(int argc, char** argv) {
       skip_camera = next();
     else if (a == "--no-temporal")
       cfg.temporal.enabled = false;
+    else if (a == "--no-tracking")
+      cfg.tracking.enabled = false;
     else if (a == "--work-zone") {
       for (int k = 0; k < 3; ++k) cfg.work_zone.min[k] = std::stod(next());
       for (int k = 0; k < 3; ++k) cfg.work_zone.max[k] = std::stod(next());
