@@ -294,6 +294,9 @@ TEST(EstimatorConfig, RejectsBadKeysByName) {
   c.tracking.redecide_every = 0;
   expectRejected(c, "tracking.redecide_every");
   c = EstimatorConfig();
+  c.threads = 0;
+  expectRejected(c, "threads");
+  c = EstimatorConfig();
   c.tracking.max_offset = -0.1;
   expectRejected(c, "tracking.max_offset");
   c = EstimatorConfig();

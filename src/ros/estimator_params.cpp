@@ -11,6 +11,8 @@ EstimatorConfig loadEstimatorConfig(const ros::NodeHandle& pnh) {
   std::string method = estimatorMethodName(c.method);
   readParam(pnh, "method", method);
   c.method = parseEstimatorMethod(method, "parameter " + pnh.resolveName("method"));
+  c.threads = 2;  // the node's default: a cycle's independent fits on two cores
+  readNumber(pnh, "threads", c.threads, 1.0);
   readVector3(pnh, "work_zone/min", c.work_zone.min);
   readVector3(pnh, "work_zone/max", c.work_zone.max);
 

@@ -1,13 +1,16 @@
-// bench_estimator: the core pipeline on a bag, single-threaded, without ROS transport: per-cycle
-// time (median, p95, p99), peak RSS and accuracy against the bag's ground truth.
+// bench_estimator: the core pipeline on a bag, single-threaded (unless --threads), without ROS
+// transport: per-cycle time (median, p95, p99), peak RSS and accuracy against the bag's ground
+// truth.
 //
 //   rosrun drill_pipe_pose bench_estimator BAG [--method ours|thesis_baseline] [--max-cycles N]
 //       [--config estimator.yaml-like params are not read here: defaults + --work-zone]
 //       [--csv errors.csv] [--label NAME] [--skip-camera CAM] [--no-temporal] [--no-tracking]
+//       [--threads N]
 //
 // --skip-camera leaves one camera's frames out (a dead camera); --no-temporal turns the temporal
 // filter off; --no-tracking makes every cycle run the full decision (with both, each cycle
-// stands alone). Invalid ends are counted by reason.
+// stands alone); --threads sets EstimatorConfig::threads (default 1; the node's default is 2).
+// Invalid ends are counted by reason.
 //
 // Cycles are formed exactly as the node forms them (FrameSynchronizer), with each frame arriving
 // 10 ms after its capture stamp. TF comes from the bag's /tf_static and /tf.
@@ -40,7 +43,8 @@ namespace {
 
 void usage() {
   std::cerr << "usage: bench_estimator BAG [--method ours|thesis_baseline] [--max-cycles N] "
-               "[--work-zone x0 y0 z0 x1 y1 z1] [--csv FILE] [--label NAME] [--skip-camera CAM] [--no-temporal] [--no-tracking]\n";
+               "[--work-zone x0 y0 z0 x1 y1 z1] [--csv FILE] [--label NAME] [--skip-camera CAM] [--no-temporal] [--no-tracking] "
+               "[--threads N]\n";
 }
 
 }  // namespace
@@ -74,6 +78,8 @@ int main(int argc, char** argv) {
       cfg.temporal.enabled = false;
     else if (a == "--no-tracking")
       cfg.tracking.enabled = false;
+    else if (a == "--threads")
+      cfg.threads = std::stoi(next());
     else if (a == "--work-zone") {
       for (int k = 0; k < 3; ++k) cfg.work_zone.min[k] = std::stod(next());
       for (int k = 0; k < 3; ++k) cfg.work_zone.max[k] = std::stod(next());

@@ -93,6 +93,7 @@ void validateConfig(const EstimatorConfig& c) {
   finite_positive(c.temporal.max_speed, "temporal.max_speed");
   finite_positive(c.temporal.gate_sigma, "temporal.gate_sigma");
   finite_positive(c.temporal.max_gap, "temporal.max_gap");
+  at_least(c.threads, 1, "threads");
   at_least(c.tracking.redecide_every, 1, "tracking.redecide_every");
   finite_positive(c.tracking.max_gap, "tracking.max_gap");
   finite_positive(c.tracking.max_angle, "tracking.max_angle");

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <future>
 #include <limits>
 #include <set>
 #include <sstream>
@@ -185,25 +186,37 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
 
   // 3. Segmentation: robust cylinder axis; 4. registration against both models.
   std::array<Candidate, kNumEnds> cand;
-  // A full decision already ran in this cycle: a track due for its periodic one waits a cycle
-  // (the two ends' decisions fall in different cycles, halving the slowest cycles' time).
-  bool decided_this_cycle = false;
-  double seg_ms = 0, reg_ms = 0;
-  for (int l = 0; l < kNumEnds; ++l) {
+  // A full decision is planned for the box end's label in this cycle (it has no track to follow,
+  // or its periodic one is due): the pin end's periodic one waits a cycle (the two ends'
+  // decisions fall in different cycles, halving the slowest cycles' time).
+  bool first_decides = false;
+  for (const auto& cam : cams) first_decides = first_decides || cam.has_label[0];
+  if (first_decides) {
+    const Track& tr = impl_->tracks[0];
+    const double gap_s = static_cast<double>(cycle_stamp_ns - tr.stamp_ns) * 1e-9;
+    first_decides = !(tr.valid && gap_s > 0 && gap_s <= config_.tracking.max_gap &&
+                      tr.cycles < config_.tracking.redecide_every);
+  }
+  std::array<double, kNumEnds> seg_ms{}, reg_ms{};
+  // One label's candidate: its points, then its tracked or decided fit. The labels share nothing
+  // they write: with threads >= 2 they run in parallel.
+  auto fitLabel = [&](int l) {
+    const bool decided_this_cycle = l == 1 && first_decides;
+    auto t0 = Clock::now();
     Candidate& cd = cand[l];
     cd.detected = static_cast<EndLabel>(l);
     bool any_box = false;
     for (const auto& cam : cams) any_box = any_box || cam.has_label[l];
     if (!any_box) {
       cd.reason = std::string("no ") + labelName(cd.detected) + " detection in any camera";
-      continue;
+      return;
     }
     if (carved[l].size() < config_.axis_fit.min_points) {
       std::ostringstream s;
       s << raw[l].size() << " points cut out, " << carved[l].size()
         << " after carving (< axis_fit.min_points = " << config_.axis_fit.min_points << ")";
       cd.reason = s.str();
-      continue;
+      return;
     }
     t0 = Clock::now();
     // Deterministic subsample to max_points.
@@ -311,8 +324,15 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
         return refineProfile(cd.pts, sig, c.origin, c.z, model, config_.profile_fit,
                              config_.profile_fit.polish_iterations, lock, &cd.eyes);
       };
-      ProfileFitResult f = refine(false);
-      const ProfileFitResult fl = refine(true);
+      ProfileFitResult f, fl;
+      if (config_.threads >= 2) {
+        auto locked = std::async(std::launch::async, refine, true);
+        f = refine(false);
+        fl = locked.get();
+      } else {
+        f = refine(false);
+        fl = refine(true);
+      }
       // When no point carries information along the axis (all of them on the tong's cylinder:
       // a reported axial std of metres), the position along it is the scan's, and the fit's
       // covariance does not describe it. Weak information is left to the gate below.
@@ -369,7 +389,7 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
                    std::acos(std::clamp(cd.fit.z.dot(tr.z), -1.0, 1.0)) <= trc.max_angle &&
                    (q - q.dot(tr.z) * tr.z).norm() <= trc.max_offset &&
                    std::abs(q.dot(tr.z)) <= trc.max_offset;
-      reg_ms += msSince(t0);
+      reg_ms[l] += msSince(t0);
     }
     if (!cd.tracked) {
       // A floor or catwalk around the joint is not part of it: left out of the axis fit (the
@@ -378,25 +398,25 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
       std::vector<Eigen::Vector3f> axis_pts;
       for (size_t k : removeSupportPlane(cd.pts, config_.axis_fit)) axis_pts.push_back(cd.pts[k]);
       if (axis_pts.size() < config_.axis_fit.min_points) {
-        seg_ms += msSince(t0);
+        seg_ms[l] += msSince(t0);
         cd.reason =
             std::to_string(axis_pts.size()) + " points left after removing the support plane";
-        continue;
+        return;
       }
       const AxisFitResult axis =
           fitCylinderAxis(axis_pts, config_.dims.tool_joint_od / 2, config_.axis_fit);
-      seg_ms += msSince(t0);
+      seg_ms[l] += msSince(t0);
       if (!axis.ok) {
         cd.reason =
             "cylinder-axis fit found no tool joint in " + std::to_string(cd.pts.size()) + " points";
-        continue;
+        return;
       }
       t0 = Clock::now();
       // Both models x both axis directions, each at its best position along the axis.
       std::array<ProfileFitResult, kNumEnds> fits;
       std::array<double, kNumEnds> cost{};
       std::array<double, kNumEnds> flip_cost{};
-      for (int m = 0; m < kNumEnds; ++m) {
+      auto hypothesesOf = [&](int m) {
         // Refined on the coarse subsample: they only need to be close enough for the decision.
         auto hyp = fitProfileHypotheses(
             coarse_pts, coarse_sig, axis.axis, impl_->models[m], config_.profile_fit,
@@ -413,6 +433,13 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
         fits[m] = hyp[k];
         cost[m] = c[k];
         flip_cost[m] = c[1 - k];
+      };
+      if (config_.threads >= 2) {
+        auto pin = std::async(std::launch::async, hypothesesOf, 1);
+        hypothesesOf(0);
+        pin.get();
+      } else {
+        for (int m = 0; m < kNumEnds; ++m) hypothesesOf(m);
       }
       const int other = 1 - l;
       int win = l;
@@ -420,19 +447,18 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
       cd.fit = fits[win];
       cd.direction_margin = flip_cost[win] - cost[win];
       if (cd.fit.ok && fsc.enabled && fsc.axial_scan) refineWinner(win);
-      decided_this_cycle = true;
-      reg_ms += msSince(t0);
+      reg_ms[l] += msSince(t0);
     }
     if (!cd.fit.ok) {
       cd.reason = "model registration failed";
-      continue;
+      return;
     }
     if (use_fs && cd.direction_margin < fsc.min_direction_margin) {
       std::ostringstream s;
       s << "axis direction ambiguous: the flipped pose scores only " << cd.direction_margin
         << " worse (< free_space.min_direction_margin = " << fsc.min_direction_margin << ")";
       cd.reason = s.str();
-      continue;
+      return;
     }
     const double inlier_fraction = static_cast<double>(cd.fit.inliers) / cd.pts.size();
     if (cd.fit.rms > config_.profile_fit.max_rms ||
@@ -441,7 +467,7 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
       s << "model fit rejected: RMS residual " << cd.fit.rms * 1000 << " mm, inliers "
         << cd.fit.inliers << "/" << cd.pts.size();
       cd.reason = s.str();
-      continue;
+      return;
     }
     if (cd.axial_from_scan && cd.axial_contrast < fsc.min_axial_contrast) {
       std::ostringstream s;
@@ -450,7 +476,7 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
         << cd.axial_contrast << " (< free_space.min_axial_contrast = " << fsc.min_axial_contrast
         << ")";
       cd.reason = s.str();
-      continue;
+      return;
     }
     {
       // A pose the points do not pin down (dark steel: the shoulder and the taper drop out) is
@@ -469,13 +495,20 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
           << config_.profile_fit.max_axial_std * 1000 << " mm, "
           << config_.profile_fit.max_tilt_std * 180 / M_PI << " deg)";
         cd.reason = s.str();
-        continue;
+        return;
       }
     }
     cd.ok = true;
+  };
+  if (config_.threads >= 2) {
+    auto other = std::async(std::launch::async, fitLabel, 1);
+    fitLabel(0);
+    other.get();
+  } else {
+    for (int l = 0; l < kNumEnds; ++l) fitLabel(l);
   }
-  result.timing.segmentation_ms = seg_ms;
-  result.timing.registration_ms = reg_ms;
+  result.timing.segmentation_ms = seg_ms[0] + seg_ms[1];
+  result.timing.registration_ms = reg_ms[0] + reg_ms[1];
   // Tracks follow each label's valid fits; a label without one ends its track.
   for (int l = 0; l < kNumEnds; ++l) {
     Track& tr = impl_->tracks[l];

@@ -23,6 +23,10 @@ const char* estimatorMethodName(EstimatorMethod m);
 
 struct EstimatorConfig {
   EstimatorMethod method = EstimatorMethod::kOurs;
+  /// Threads of a cycle: 1 runs it on the calling thread; 2 or more fit the two labels in
+  /// parallel, and within a full decision the two models' hypotheses and, in the refinement, the
+  /// free and locked fits. The results are the same either way.
+  int threads = 1;
 
   /// Nominal tool-joint geometry the models are built from [m, deg].
   ToolJointDimensions dims;
