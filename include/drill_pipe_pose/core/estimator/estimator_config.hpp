@@ -186,8 +186,9 @@ struct EstimatorConfig {
   /// when tracking is off.
   struct Tracking {
     bool enabled = true;
-    /// Cycles between full decisions of a continuing track (one more when the other end
-    /// decided in that cycle, so that the two ends' decisions fall in different cycles).
+    /// Cycles between full decisions of a continuing track (for the pin end's label one more
+    /// when the box end's is due for one in that cycle, so that the two ends' periodic decisions
+    /// fall in different cycles).
     int redecide_every = 10;
     double max_gap = 0.5;      ///< [s] a longer gap since the track's last pose ends it
     double max_angle = 0.08;   ///< [rad] largest angle between the refined axis and the track's
