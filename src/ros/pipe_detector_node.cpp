@@ -11,9 +11,10 @@
 //   labels [[box_end, pin_end]]      class names in model order (box_end, pin_end or ignore)
 //   labels_file [""]                 one class name per line; overrides labels when set
 //   output_format [auto]             auto | grid | yolov5 | yolov8 | darknet
-//   input_width [640], input_height [384]   network input [px], multiples of 32
+//   input_width [960], input_height [544]   network input [px], multiples of 32
 //   allow_upscale [false]            enlarge a roi smaller than the input
-//   confidence_threshold [0.25], nms_threshold [0.45], cross_class_nms_threshold [0.7]
+//   confidence_threshold [0.25], nms_threshold [0.45], cross_class_nms_threshold [0.7],
+//   max_candidates [1000] (kept before NMS)
 //   max_boxes_per_class [1]          <= 0: unlimited
 //   roi [[]]                         [x, y, width, height] of the colour image [px]; [] = whole
 //   crop_depth [false]               send depth cropped to the boxes' frustum (depth_info.roi)
@@ -76,6 +77,7 @@ class PipeDetectorNode {
     readParam(pnh, "allow_upscale", c.allow_upscale);
     readNumber(pnh, "confidence_threshold", c.confidence_threshold, 1e-6);
     readNumber(pnh, "nms_threshold", c.nms_threshold, 1e-6);
+    readNumber(pnh, "max_candidates", c.max_candidates, 1.0);
     readNumber(pnh, "cross_class_nms_threshold", c.cross_class_nms_threshold, 0.0);
     readParam(pnh, "max_boxes_per_class", c.max_boxes_per_class);
     readParam(pnh, "num_threads", c.num_threads);

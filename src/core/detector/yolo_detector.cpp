@@ -148,6 +148,8 @@ YoloDetector::YoloDetector(const DetectorConfig& config) : config_(config), impl
     fail("detector input_height = ", c.input_height, ": must be a positive multiple of 32");
   if (!(c.confidence_threshold > 0.0f && c.confidence_threshold <= 1.0f))
     fail("detector confidence_threshold = ", c.confidence_threshold, ": must be in (0, 1]");
+  if (c.max_candidates < 1)
+    fail("detector max_candidates = ", c.max_candidates, ": must be >= 1");
   if (!(c.nms_threshold > 0.0f && c.nms_threshold <= 1.0f))
     fail("detector nms_threshold = ", c.nms_threshold, ": must be in (0, 1]");
   if (c.labels.empty()) fail("detector labels: empty list (expected e.g. [box_end, pin_end])");
@@ -255,6 +257,11 @@ std::vector<ScoredBox> YoloDetector::detectRaw(const cv::Mat& bgr) {
   boxes.erase(std::remove_if(boxes.begin(), boxes.end(),
                              [](const ScoredBox& b) { return b.width() <= 0 || b.height() <= 0; }),
               boxes.end());
+  if (boxes.size() > static_cast<size_t>(config_.max_candidates)) {
+    std::nth_element(boxes.begin(), boxes.begin() + config_.max_candidates, boxes.end(),
+                     [](const ScoredBox& a, const ScoredBox& b) { return a.score > b.score; });
+    boxes.resize(static_cast<size_t>(config_.max_candidates));
+  }
   boxes = nonMaximumSuppression(std::move(boxes), config_.nms_threshold, false);
   if (config_.cross_class_nms_threshold < 1.0f)
     boxes = nonMaximumSuppression(std::move(boxes), config_.cross_class_nms_threshold, true);

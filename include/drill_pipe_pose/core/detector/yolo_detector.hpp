@@ -28,11 +28,16 @@ struct DetectorConfig {
   /// "ignore" for a model class whose detections are dropped. Must match the model's class count.
   std::vector<std::string> labels{"box_end", "pin_end"};
   OutputFormat format = OutputFormat::kAuto;
-  int input_width = 640;               ///< [px] network input, a multiple of 32 (QHD at 2/3 scale)
-  int input_height = 384;              ///< [px]
+  /// [px] network input, multiples of 32: the kinect2 qHD colour image at its own scale (tool
+  /// joints are ~10 px wide at 6 m; shrinking them loses them).
+  int input_width = 960;
+  int input_height = 544;              ///< [px]
   bool allow_upscale = false;          ///< enlarge a roi smaller than the input (false: pad only)
   float confidence_threshold = 0.25f;  ///< minimum objectness x class probability
   float nms_threshold = 0.45f;         ///< IoU above which a same-class box is suppressed
+  /// Candidates kept (the highest scores) before NMS: bounds its quadratic cost on an image that
+  /// lights up everywhere (noise, glare), where thousands of cells pass the threshold.
+  int max_candidates = 1000;
   /// IoU above which a box of the OTHER class is suppressed too (one tool joint, one label); >= 1
   /// disables it.
   float cross_class_nms_threshold = 0.7f;
