@@ -366,8 +366,12 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
     Track& tr = impl_->tracks[l];
     const double gap_s = static_cast<double>(cycle_stamp_ns - tr.stamp_ns) * 1e-9;
     const int due = trc.redecide_every + (decided_this_cycle ? 1 : 0);
-    cd.tracked = trc.enabled && fsc.enabled && fsc.axial_scan && tr.valid && gap_s > 0 &&
-                 gap_s <= trc.max_gap && tr.cycles < due;
+    const bool trackable = trc.enabled && fsc.enabled && fsc.axial_scan && tr.valid &&
+                           gap_s > 0 && gap_s <= trc.max_gap;
+    cd.tracked = trackable && tr.cycles < due;
+    // A periodic decision of a continuing track re-decides the model and the direction on the
+    // track's axis (no support-plane removal and axis fit).
+    const bool periodic = trackable && !cd.tracked;
     if (cd.tracked) {
       t0 = Clock::now();
       Eigen::Vector3d move = tr.velocity * gap_s;
@@ -395,16 +399,25 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
       // A floor or catwalk around the joint is not part of it: left out of the axis fit (the
       // profile registration and the decision judge every point, with the same cost for all).
       t0 = Clock::now();
-      std::vector<Eigen::Vector3f> axis_pts;
-      for (size_t k : removeSupportPlane(cd.pts, config_.axis_fit)) axis_pts.push_back(cd.pts[k]);
-      if (axis_pts.size() < config_.axis_fit.min_points) {
-        seg_ms[l] += msSince(t0);
-        cd.reason =
-            std::to_string(axis_pts.size()) + " points left after removing the support plane";
-        return;
+      AxisFitResult axis;
+      if (periodic) {
+        Eigen::Vector3d move = tr.velocity * gap_s;
+        if (move.norm() > trc.max_prediction) move *= trc.max_prediction / move.norm();
+        axis.ok = true;
+        axis.axis.point = tr.origin + move;
+        axis.axis.direction = tr.z;
+      } else {
+        std::vector<Eigen::Vector3f> axis_pts;
+        for (size_t k : removeSupportPlane(cd.pts, config_.axis_fit))
+          axis_pts.push_back(cd.pts[k]);
+        if (axis_pts.size() < config_.axis_fit.min_points) {
+          seg_ms[l] += msSince(t0);
+          cd.reason =
+              std::to_string(axis_pts.size()) + " points left after removing the support plane";
+          return;
+        }
+        axis = fitCylinderAxis(axis_pts, config_.dims.tool_joint_od / 2, config_.axis_fit);
       }
-      const AxisFitResult axis =
-          fitCylinderAxis(axis_pts, config_.dims.tool_joint_od / 2, config_.axis_fit);
       seg_ms[l] += msSince(t0);
       if (!axis.ok) {
         cd.reason =

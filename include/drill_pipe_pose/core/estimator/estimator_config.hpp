@@ -182,8 +182,9 @@ struct EstimatorConfig {
   /// by its velocity) with its model and axis direction, and skips the cylinder-axis fit, the
   /// hypothesis search and the model/direction decision (most of a cycle's time). The full
   /// decision runs again when the refined pose leaves the prediction by more than max_angle or
-  /// max_offset, after a gap, at least every `redecide_every` cycles of a track, and always
-  /// when tracking is off.
+  /// max_offset, after a gap, and always when tracking is off; at least every `redecide_every`
+  /// cycles of a track the model and direction are decided again on the track's axis (the
+  /// hypotheses without the support-plane removal and the cylinder-axis fit).
   struct Tracking {
     bool enabled = true;
     /// Cycles between full decisions of a continuing track (for the pin end's label one more
