@@ -28,17 +28,36 @@ struct SequenceStats {
   std::vector<double> cycle_ms;
 };
 
-/// Renders `cycles` cycles (one frame per camera each) of a scenario and runs the estimator.
-SequenceStats runScenario(const std::string& scene, const std::string& profile, uint32_t seed,
-                          int cycles, EstimatorMethod method = EstimatorMethod::kOurs) {
+/// The thesis-lab simulator on a scene (simulated detector).
+std::unique_ptr<sim::RigSimulator> makeSimulator(
+    const std::string& scene, uint32_t seed, const std::string& profile = "kinect_v2_calibrated") {
   const std::string dir = DRILL_PIPE_POSE_SOURCE_DIR;
   sim::SimulatorOptions opt;
   opt.profile = profile;
   opt.seed = seed;
   opt.sensor_config_dir = dir + "/config/sensors";
   opt.stamp_origin_ns = 1000000000;
-  auto simulator = sim::loadScenario(dir + "/config/rigs/thesis_lab.yaml",
-                                     dir + "/config/scenes/" + scene + ".yaml", opt);
+  return sim::loadScenario(dir + "/config/rigs/thesis_lab.yaml",
+                           dir + "/config/scenes/" + scene + ".yaml", opt);
+}
+
+/// Cycle k of the simulator: one rendered frame per camera, with its published transforms.
+std::vector<CameraInput> renderCycle(sim::RigSimulator& simulator, int k) {
+  std::vector<CameraInput> inputs;
+  for (size_t i = 0; i < simulator.numCameras(); ++i) {
+    CameraInput in;
+    in.frame = simulator.render(i, simulator.captureTime(i, k), k).sensor_frame;
+    in.T_color_depth = simulator.T_link_depth(i);
+    in.T_world_depth = simulator.publishedT_world_link(i) * simulator.T_link_depth(i);
+    inputs.push_back(std::move(in));
+  }
+  return inputs;
+}
+
+/// Renders `cycles` cycles (one frame per camera each) of a scenario and runs the estimator.
+SequenceStats runScenario(const std::string& scene, const std::string& profile, uint32_t seed,
+                          int cycles, EstimatorMethod method = EstimatorMethod::kOurs) {
+  auto simulator = makeSimulator(scene, seed, profile);
   EstimatorConfig cfg;
   cfg.method = method;
   cfg.work_zone.min = simulator->workZone().min;
@@ -131,14 +150,7 @@ TEST(EstimatorOnSimulator, ThesisVerticalCalibrated) {
 // parallel: the poses, validity and reasons must be exactly those of one thread, over cycles that
 // include full decisions (0, 10, 11) and tracked ones (stabbing: both ends seen).
 TEST(EstimatorOnSimulator, TwoThreadsGiveTheSameResultsAsOne) {
-  const std::string dir = DRILL_PIPE_POSE_SOURCE_DIR;
-  sim::SimulatorOptions opt;
-  opt.profile = "kinect_v2_calibrated";
-  opt.seed = 5;
-  opt.sensor_config_dir = dir + "/config/sensors";
-  opt.stamp_origin_ns = 1000000000;
-  auto simulator = sim::loadScenario(dir + "/config/rigs/thesis_lab.yaml",
-                                     dir + "/config/scenes/stabbing.yaml", opt);
+  auto simulator = makeSimulator("stabbing", 5);
   EstimatorConfig cfg;
   cfg.work_zone.min = simulator->workZone().min;
   cfg.work_zone.max = simulator->workZone().max;
@@ -148,15 +160,7 @@ TEST(EstimatorOnSimulator, TwoThreadsGiveTheSameResultsAsOne) {
   int valid = 0;
   for (int k = 0; k < 14; ++k) {
     SCOPED_TRACE("cycle " + std::to_string(k) + " (seed 5)");
-    std::vector<CameraInput> inputs;
-    for (size_t i = 0; i < simulator->numCameras(); ++i) {
-      const double t = simulator->captureTime(i, k);
-      CameraInput in;
-      in.frame = simulator->render(i, t, k).sensor_frame;
-      in.T_color_depth = simulator->T_link_depth(i);
-      in.T_world_depth = simulator->publishedT_world_link(i) * simulator->T_link_depth(i);
-      inputs.push_back(std::move(in));
-    }
+    const std::vector<CameraInput> inputs = renderCycle(*simulator, k);
     const CycleResult a = one.process(inputs), b = two.process(inputs);
     for (int l = 0; l < kNumEnds; ++l) {
       SCOPED_TRACE(labelName(static_cast<EndLabel>(l)));
@@ -177,14 +181,7 @@ TEST(EstimatorOnSimulator, TwoThreadsGiveTheSameResultsAsOne) {
 // pipe_detector crop_depth:=true and simulate_bag --crop do): the estimator must give exactly the
 // poses it gives on the full depth images, cycle by cycle.
 TEST(EstimatorOnSimulator, CroppedDepthGivesTheSamePosesAsFull) {
-  const std::string dir = DRILL_PIPE_POSE_SOURCE_DIR;
-  sim::SimulatorOptions opt;
-  opt.profile = "kinect_v2_calibrated";
-  opt.seed = 6;
-  opt.sensor_config_dir = dir + "/config/sensors";
-  opt.stamp_origin_ns = 1000000000;
-  auto simulator = sim::loadScenario(dir + "/config/rigs/thesis_lab.yaml",
-                                     dir + "/config/scenes/thesis_vertical.yaml", opt);
+  auto simulator = makeSimulator("thesis_vertical", 6);
   EstimatorConfig cfg;
   cfg.work_zone.min = simulator->workZone().min;
   cfg.work_zone.max = simulator->workZone().max;
@@ -193,18 +190,12 @@ TEST(EstimatorOnSimulator, CroppedDepthGivesTheSamePosesAsFull) {
   size_t full_px = 0, cropped_px = 0;
   for (int k = 0; k < 12; ++k) {
     SCOPED_TRACE("cycle " + std::to_string(k) + " (seed 6)");
-    std::vector<CameraInput> full, cropped;
-    for (size_t i = 0; i < simulator->numCameras(); ++i) {
-      CameraInput in;
-      in.frame = simulator->render(i, simulator->captureTime(i, k), k).sensor_frame;
-      in.T_color_depth = simulator->T_link_depth(i);
-      in.T_world_depth = simulator->publishedT_world_link(i) * simulator->T_link_depth(i);
-      CameraInput c = in;
-      c.frame = cropDepthToBoxes(in.frame, in.T_color_depth);
-      full_px += in.frame.depth.width * in.frame.depth.height;
+    const std::vector<CameraInput> full = renderCycle(*simulator, k);
+    std::vector<CameraInput> cropped = full;
+    for (CameraInput& c : cropped) {
+      full_px += c.frame.depth.width * c.frame.depth.height;
+      c.frame = cropDepthToBoxes(c.frame, c.T_color_depth);
       cropped_px += c.frame.depth.width * c.frame.depth.height;
-      full.push_back(std::move(in));
-      cropped.push_back(std::move(c));
     }
     const CycleResult a = on_full.process(full), b = on_cropped.process(cropped);
     for (int l = 0; l < kNumEnds; ++l) {
@@ -236,14 +227,7 @@ TEST(EstimatorOnSimulator, DISABLED_ThesisVerticalTargets) {
 }
 
 TEST(EstimatorOnSimulator, DISABLED_DumpProfile) {
-  const std::string dir = DRILL_PIPE_POSE_SOURCE_DIR;
-  sim::SimulatorOptions opt;
-  opt.profile = "kinect_v2_calibrated";
-  opt.seed = 7;
-  opt.sensor_config_dir = dir + "/config/sensors";
-  opt.stamp_origin_ns = 1000000000;
-  auto simulator = sim::loadScenario(dir + "/config/rigs/thesis_lab.yaml",
-                                     dir + "/config/scenes/thesis_vertical.yaml", opt);
+  auto simulator = makeSimulator("thesis_vertical", 7);
   EstimatorConfig cfg;
   cfg.work_zone.min = simulator->workZone().min;
   cfg.work_zone.max = simulator->workZone().max;

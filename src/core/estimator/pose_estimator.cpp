@@ -372,11 +372,12 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
     // A periodic decision of a continuing track re-decides the model and the direction on the
     // track's axis (no support-plane removal and axis fit).
     const bool periodic = trackable && !cd.tracked;
+    // The track's origin moved on by its velocity (at most max_prediction).
+    Eigen::Vector3d move = tr.velocity * gap_s;
+    if (move.norm() > trc.max_prediction) move *= trc.max_prediction / move.norm();
+    const Eigen::Vector3d pred = tr.origin + move;
     if (cd.tracked) {
       t0 = Clock::now();
-      Eigen::Vector3d move = tr.velocity * gap_s;
-      if (move.norm() > trc.max_prediction) move *= trc.max_prediction / move.norm();
-      const Eigen::Vector3d pred = tr.origin + move;
       cd.fit = ProfileFitResult();
       cd.fit.ok = true;
       cd.fit.label = tr.model;
@@ -401,10 +402,8 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
       t0 = Clock::now();
       AxisFitResult axis;
       if (periodic) {
-        Eigen::Vector3d move = tr.velocity * gap_s;
-        if (move.norm() > trc.max_prediction) move *= trc.max_prediction / move.norm();
         axis.ok = true;
-        axis.axis.point = tr.origin + move;
+        axis.axis.point = pred;
         axis.axis.direction = tr.z;
       } else {
         std::vector<Eigen::Vector3f> axis_pts;
