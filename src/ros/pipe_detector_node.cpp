@@ -21,7 +21,8 @@
 //   crop_margin_px [12.0], crop_min_range [0.3], crop_max_range [12.0]   (core DepthCropConfig)
 //   sync_slop [0.02]                 [s] max colour/depth stamp difference
 //   queue_size [2]                   per-topic subscriber queue (small: always the latest frame)
-//   max_rate [0.0]                   [Hz] process at most this many frames per second; 0: all
+//   max_rate [0.0]                   [Hz] process at most this many frames per second of capture
+//                                    time (the first of each 1/max_rate slot); 0: all
 //   num_threads [1]                  OpenCV threads for inference
 //   tf_timeout [0.05]                [s] wait for <cam>_rgb_optical_frame <- <cam>_ir_optical_frame
 // Publishes <cam>/sensor_frame and ~debug_image (bgr8, annotated; only while subscribed).
@@ -37,6 +38,7 @@
 
 #include <opencv2/core.hpp>
 
+#include <cmath>
 #include <optional>
 
 #include "drill_pipe_pose/core/depth_crop.hpp"
@@ -155,8 +157,11 @@ class PipeDetectorNode {
   void onFrames(const ImageConstPtr& color, const CameraInfoConstPtr& color_info,
                 const ImageConstPtr& depth, const CameraInfoConstPtr& depth_info) {
     const ros::Time stamp = color->header.stamp;
+    // Rate limit on a grid of capture time shared by every sensor node: each takes the first
+    // frame of every 1/max_rate slot, so the central node gets one frame per camera of the same
+    // moment (a limit counted from each node's own last frame would scatter them over the slot).
     if (max_rate_ > 0 && !last_stamp_.isZero() && stamp > last_stamp_ &&
-        (stamp - last_stamp_).toSec() < 1.0 / max_rate_)
+        std::floor(stamp.toSec() * max_rate_) == std::floor(last_stamp_.toSec() * max_rate_))
       return;
     if (stamp < last_stamp_) last_stamp_ = ros::Time();  // bag loop / clock jump back
     try {
