@@ -127,3 +127,33 @@ TEST(FrameSync, BadConfigurationIsNamed) {
   cfg.window = 0;
   EXPECT_THROW(FrameSynchronizer({"a"}, cfg), InputError);
 }
+
+// The sensor nodes' rate limit: the first frame of each 1/max_rate slot of capture time, so that
+// cameras with different phases (here 0 and 21 ms) and start times pick frames of the same slot.
+// A node that starts mid-slot takes its first frame at once, then the first of every slot (a limit
+// counted from its own last frame would stay mid-slot).
+TEST(FrameSync, RateLimitOnASharedCaptureTimeGrid) {
+  const double rate = 2.0;  // slots [k/2, (k+1)/2) s
+  for (const int64_t phase_ns : {int64_t{0}, int64_t{21000000}}) {
+    SCOPED_TRACE("phase " + std::to_string(phase_ns) + " ns");
+    std::vector<int64_t> taken;
+    int64_t last = 0;
+    for (int k = 5; k < 66; ++k) {  // 30 Hz, starting 0.167 s into the slot [1.0, 1.5)
+      const int64_t stamp = 1000000000 + k * 33333333LL + phase_ns;
+      if (takeFrameAtRate(stamp, last, rate)) {
+        taken.push_back(stamp);
+        last = stamp;
+      }
+    }
+    ASSERT_EQ(taken.size(), 5u);  // slots 2 (its first frame seen), 3, 4, 5, 6
+    for (size_t i = 1; i < taken.size(); ++i) {
+      const double t = static_cast<double>(taken[i]) * 1e-9;
+      EXPECT_EQ(std::floor(t * rate), 2.0 + static_cast<double>(i)) << t;
+      EXPECT_LT(t - std::floor(t * rate) / rate, 1.0 / 30.0) << "not the slot's first frame";
+    }
+  }
+  EXPECT_TRUE(takeFrameAtRate(1000000000, 0, rate));            // first frame
+  EXPECT_TRUE(takeFrameAtRate(1100000000, 1000000000, 0.0));    // no limit
+  EXPECT_TRUE(takeFrameAtRate(500000000, 1000000000, rate));    // time went back (bag loop)
+  EXPECT_FALSE(takeFrameAtRate(1400000000, 1000000000, rate));  // same slot
+}

@@ -8,6 +8,12 @@
 
 namespace drill_pipe_pose {
 
+bool takeFrameAtRate(int64_t stamp_ns, int64_t last_ns, double max_rate) {
+  if (!(max_rate > 0) || last_ns <= 0 || stamp_ns <= last_ns) return true;
+  auto slot = [&](int64_t ns) { return std::floor(static_cast<double>(ns) * 1e-9 * max_rate); };
+  return slot(stamp_ns) != slot(last_ns);
+}
+
 FrameSynchronizer::FrameSynchronizer(const std::vector<std::string>& cameras,
                                      const FrameSyncConfig& config)
     : config_(config), cameras_(cameras) {

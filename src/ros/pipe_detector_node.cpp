@@ -38,12 +38,12 @@
 
 #include <opencv2/core.hpp>
 
-#include <cmath>
 #include <optional>
 
 #include "drill_pipe_pose/core/depth_crop.hpp"
 #include "drill_pipe_pose/core/detector/yolo_detector.hpp"
 #include "drill_pipe_pose/core/errors.hpp"
+#include "drill_pipe_pose/core/frame_sync.hpp"
 #include "drill_pipe_pose/ros/conversions.hpp"
 #include "drill_pipe_pose/ros/params.hpp"
 
@@ -157,11 +157,10 @@ class PipeDetectorNode {
   void onFrames(const ImageConstPtr& color, const CameraInfoConstPtr& color_info,
                 const ImageConstPtr& depth, const CameraInfoConstPtr& depth_info) {
     const ros::Time stamp = color->header.stamp;
-    // Rate limit on a grid of capture time shared by every sensor node: each takes the first
-    // frame of every 1/max_rate slot, so the central node gets one frame per camera of the same
-    // moment (a limit counted from each node's own last frame would scatter them over the slot).
-    if (max_rate_ > 0 && !last_stamp_.isZero() && stamp > last_stamp_ &&
-        std::floor(stamp.toSec() * max_rate_) == std::floor(last_stamp_.toSec() * max_rate_))
+    // On a capture-time grid shared by every sensor node (a limit counted from each node's own
+    // last frame would scatter the cameras' frames over the slot).
+    if (!takeFrameAtRate(static_cast<int64_t>(stamp.toNSec()),
+                         static_cast<int64_t>(last_stamp_.toNSec()), max_rate_))
       return;
     if (stamp < last_stamp_) last_stamp_ = ros::Time();  // bag loop / clock jump back
     try {

@@ -19,6 +19,12 @@
 
 namespace drill_pipe_pose {
 
+/// Sensor-node rate limit on a capture-time grid shared by every node: a frame is processed when
+/// it is the first of its 1/max_rate slot (floor(stamp * max_rate) differs from that of the last
+/// processed frame, or time went back). Every node then picks frames of the same moment, which
+/// the central node fuses into one cycle. max_rate <= 0 or last_ns <= 0: every frame.
+bool takeFrameAtRate(int64_t stamp_ns, int64_t last_ns, double max_rate);
+
 struct FrameSyncConfig {
   double window = 1.0 / 30.0;   ///< [s] capture-stamp span of one cycle (one sensor period)
   double max_wait = 0.05;       ///< [s] arrival time a cycle waits for late cameras
