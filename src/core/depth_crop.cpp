@@ -7,13 +7,10 @@
 
 namespace drill_pipe_pose {
 
-SensorFrameData cropDepthToBoxes(const SensorFrameData& frame,
-                                 const Eigen::Isometry3d& T_color_depth,
-                                 const DepthCropConfig& config) {
-  const CycleCamera cam =
-      makeCycleCamera(frame, Eigen::Isometry3d::Identity(), T_color_depth, 0.0f);
+bool depthCropRect(const CycleCamera& cam, const DepthCropConfig& config,
+                   std::array<int, 4>* rect) {
   int u0 = INT32_MAX, v0 = INT32_MAX, u1 = INT32_MIN, v1 = INT32_MIN;
-  for (const auto& box : frame.boxes) {
+  for (const auto& box : cam.boxes) {
     std::array<int, 4> r;
     if (!depthRectOfBox(cam, box, config.margin_px, config.min_range, config.max_range, &r))
       continue;
@@ -22,8 +19,19 @@ SensorFrameData cropDepthToBoxes(const SensorFrameData& frame,
     u1 = std::max(u1, r[2]);
     v1 = std::max(v1, r[3]);
   }
-  const bool empty = u0 >= u1 || v0 >= v1;
-  if (empty) u0 = v0 = 0, u1 = v1 = 1;
+  if (u0 >= u1 || v0 >= v1) return false;
+  *rect = {{u0, v0, u1, v1}};
+  return true;
+}
+
+SensorFrameData cropDepthToBoxes(const SensorFrameData& frame,
+                                 const Eigen::Isometry3d& T_color_depth,
+                                 const DepthCropConfig& config) {
+  const CycleCamera cam =
+      makeCycleCamera(frame, Eigen::Isometry3d::Identity(), T_color_depth, 0.0f);
+  std::array<int, 4> r{{0, 0, 1, 1}};
+  const bool empty = !depthCropRect(cam, config, &r);
+  const int u0 = r[0], v0 = r[1], u1 = r[2], v1 = r[3];
   SensorFrameData out = frame;
   const size_t bpp = bytesPerPixel(frame.depth.encoding);
   DepthImage crop = DepthImage::allocate(u1 - u0, v1 - v0, frame.depth.encoding);

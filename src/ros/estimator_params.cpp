@@ -40,6 +40,14 @@ EstimatorConfig loadEstimatorConfig(const ros::NodeHandle& pnh) {
   readNumber(pnh, "carving/min_cameras", c.carving.min_cameras, 1.0);
   readNumber(pnh, "carving/vote_fraction", c.carving.vote_fraction, 0.0);
   readNumber(pnh, "carving/margin_px", c.carving.margin_px, 0.0);
+  readNumber(pnh, "carving/occlusion_margin", c.carving.occlusion_margin, 0.0);
+  readNumber(pnh, "instances/cluster_tolerance", c.instances.cluster_tolerance, 0.0);
+  readNumber(pnh, "instances/max_instances", c.instances.max_instances, 1.0);
+  readNumber(pnh, "instances/track_gate", c.instances.track_gate, 0.0);
+  readNumber(pnh, "instances/min_cost_margin", c.instances.min_cost_margin, 0.0);
+  readNumber(pnh, "instances/min_decisions", c.instances.min_decisions, 1.0);
+  readNumber(pnh, "instances/memory_decisions", c.instances.memory_decisions, 1.0);
+  readNumber(pnh, "instances/memory_s", c.instances.memory_s, 0.0);
 
   readNumber(pnh, "axis_fit/min_points", c.axis_fit.min_points, 3.0);
   readNumber(pnh, "axis_fit/max_points", c.axis_fit.max_points, 3.0);

@@ -14,6 +14,7 @@
 //
 // Cycles are formed exactly as the node forms them (FrameSynchronizer), with each frame arriving
 // 10 ms after its capture stamp. TF comes from the bag's /tf_static and /tf.
+#include <cctype>
 #include <drill_pipe_pose/SensorFrame.h>
 #include <geometry_msgs/PoseStamped.h>
 #include <rosbag/bag.h>
@@ -173,8 +174,19 @@ int main(int argc, char** argv) {
         s.covariance = r.ends[e].covariance;
         estimates.push_back(s);
         if (!r.ends[e].valid) {
-          // Reasons without their numbers, counted.
-          std::string why = r.ends[e].reason.substr(0, r.ends[e].reason.find_first_of("0123456789"));
+          // Reasons with their numbers as '#' (at most 110 characters), counted.
+          std::string why;
+          const std::string& rs = r.ends[e].reason;
+          for (size_t i = 0; i < rs.size() && why.size() < 110; ++i) {
+            if (std::isdigit(static_cast<unsigned char>(rs[i]))) {
+              while (i + 1 < rs.size() && (std::isdigit(static_cast<unsigned char>(rs[i + 1])) ||
+                                           rs[i + 1] == '.' || rs[i + 1] == 'e'))
+                ++i;
+              why += '#';
+            } else {
+              why += rs[i];
+            }
+          }
           ++reasons[std::string(labelName(s.label)) + ": " + why];
         }
       }

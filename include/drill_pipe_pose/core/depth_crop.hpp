@@ -5,6 +5,7 @@
 // only the boxes' frusta.
 
 #include <Eigen/Geometry>
+#include <array>
 
 #include "drill_pipe_pose/core/sensor_frame.hpp"
 
@@ -15,6 +16,14 @@ struct DepthCropConfig {
   double min_range = 0.3;   ///< [m] nearest depth a box pixel can have
   double max_range = 12.0;  ///< [m] farthest depth a box pixel can have
 };
+
+struct CycleCamera;
+
+/// The depth-pixel rectangle [u0, u1) x [v0, v1) of `cam`'s delivered depth image that
+/// cropDepthToBoxes keeps: the bounding rectangle of every pixel that can register into one of
+/// its boxes. False when there is none.
+bool depthCropRect(const CycleCamera& cam, const DepthCropConfig& config,
+                   std::array<int, 4>* rect);
 
 /// The frame with its depth cropped to the bounding rectangle of every depth pixel that can
 /// register into one of its boxes (depth in [min_range, max_range]). A frame without boxes keeps

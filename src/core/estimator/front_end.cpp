@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "drill_pipe_pose/core/errors.hpp"
+#include "drill_pipe_pose/core/depth_crop.hpp"
 #include "drill_pipe_pose/core/estimator/stages.hpp"
 
 namespace drill_pipe_pose {
@@ -47,6 +48,14 @@ void validateConfig(const EstimatorConfig& c) {
     fail("estimator config: carving.vote_fraction = ", c.carving.vote_fraction,
          " must be in [0, 1]");
   non_negative(c.carving.margin_px, "carving.margin_px");
+  non_negative(c.carving.occlusion_margin, "carving.occlusion_margin");
+  finite_positive(c.instances.cluster_tolerance, "instances.cluster_tolerance");
+  at_least(c.instances.max_instances, 1, "instances.max_instances");
+  finite_positive(c.instances.track_gate, "instances.track_gate");
+  non_negative(c.instances.min_cost_margin, "instances.min_cost_margin");
+  at_least(c.instances.min_decisions, 1, "instances.min_decisions");
+  at_least(c.instances.memory_decisions, 1, "instances.memory_decisions");
+  finite_positive(c.instances.memory_s, "instances.memory_s");
   at_least(c.axis_fit.min_points, 10, "axis_fit.min_points");
   at_least(c.axis_fit.max_points, 20, "axis_fit.max_points");
   if (c.profile_fit.max_points < c.axis_fit.min_points)
@@ -161,6 +170,7 @@ CycleCamera makeCycleCamera(const SensorFrameData& frame, const Eigen::Isometry3
     cam.has_label[l] = true;
     cam.boxes.push_back(b);
   }
+  if (!depthCropRect(cam, DepthCropConfig(), &cam.crop)) cam.crop = {{0, 0, 0, 0}};
   return cam;
 }
 
@@ -253,6 +263,13 @@ std::vector<CloudPoint> carve(const std::vector<CloudPoint>& points, EndLabel la
     Eigen::Vector3f t;
     float fx, fy, cx, cy, w, h;
     std::vector<const DetectionBox*> boxes;
+    // The depth image, to tell whether the camera sees the point at all.
+    Eigen::Matrix3f R_d;
+    Eigen::Vector3f t_d;
+    float dfx, dfy, dcx, dcy;  // full-sensor principal point
+    int off_x, off_y;          // the delivered image's offset in the sensor (roi)
+    const DepthImage* depth;
+    std::array<int, 4> crop;  // depth pixels the occlusion test may read (CycleCamera::crop)
   };
   std::vector<Judge> judges(cameras.size());
   std::vector<bool> can_judge(cameras.size(), false);
@@ -269,9 +286,32 @@ std::vector<CloudPoint> carve(const std::vector<CloudPoint>& points, EndLabel la
     j.cy = cam.color.cy() - cam.color.offsetY();
     j.w = cam.color.imageWidth();
     j.h = cam.color.imageHeight();
+    const Eigen::Isometry3d T_depth_world = cam.T_world_depth.inverse();
+    j.R_d = T_depth_world.linear().cast<float>();
+    j.t_d = T_depth_world.translation().cast<float>();
+    j.dfx = cam.depth.fx();
+    j.dfy = cam.depth.fy();
+    j.dcx = cam.depth.cx();
+    j.dcy = cam.depth.cy();
+    j.off_x = static_cast<int>(cam.depth.offsetX());
+    j.off_y = static_cast<int>(cam.depth.offsetY());
+    j.depth = &cam.image;
+    j.crop = cam.crop;
     for (const auto& b : cam.boxes)
       if (b.label == label) j.boxes.push_back(&b);
   }
+  // Something nearer than the point on the camera's ray (its depth pixel, where delivered, is
+  // closer by more than occlusion_margin): the camera cannot see the point, and does not vote.
+  auto occluded = [&](const Judge& j, const Eigen::Vector3f& pw) {
+    const Eigen::Vector3f pd = j.R_d * pw + j.t_d;
+    if (!(pd.z() > 0.0f)) return false;
+    // Rounded in sensor pixels, then shifted: the same pixel with full and cropped depth.
+    const int u = static_cast<int>(std::round(j.dfx * pd.x() / pd.z() + j.dcx)) - j.off_x,
+              v = static_cast<int>(std::round(j.dfy * pd.y() / pd.z() + j.dcy)) - j.off_y;
+    if (u < j.crop[0] || v < j.crop[1] || u >= j.crop[2] || v >= j.crop[3]) return false;
+    const float z = j.depth->depthAt(static_cast<uint32_t>(u), static_cast<uint32_t>(v));
+    return z > 0.0f && z < pd.z() - static_cast<float>(config.occlusion_margin);
+  };
   const float margin = config.margin_px;
   std::vector<CloudPoint> kept;
   kept.reserve(points.size());
@@ -284,6 +324,7 @@ std::vector<CloudPoint> carve(const std::vector<CloudPoint>& points, EndLabel la
       if (!(pc.z() > 0.0f)) continue;
       const float u = j.fx * pc.x() / pc.z() + j.cx, v = j.fy * pc.y() / pc.z() + j.cy;
       if (u < -0.5f || v < -0.5f || u > j.w - 0.5f || v > j.h - 0.5f) continue;
+      if (config.occlusion_margin > 0 && occluded(j, p.p_world)) continue;
       ++voters;
       for (const DetectionBox* b : j.boxes)
         if (u >= b->x_min - margin && u <= b->x_max + margin && v >= b->y_min - margin &&

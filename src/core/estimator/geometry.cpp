@@ -705,9 +705,13 @@ size_t seenThroughPixels(const std::vector<OrientedPoint>& samples,
     const Eigen::Matrix3f R = T_depth_end.linear().cast<float>();
     const Eigen::Vector3f t = T_depth_end.translation().cast<float>();
     const float fx = cam.depth.fx(), fy = cam.depth.fy();
-    const float cx = cam.depth.cx() - cam.depth.offsetX(),
-                cy = cam.depth.cy() - cam.depth.offsetY();
-    const int W = cam.image.width, H = cam.image.height;
+    // Pixels rounded in the sensor, then shifted into the delivered image, and read only in
+    // cam.crop: the same pixels with full and cropped depth.
+    const float cx = cam.depth.cx(), cy = cam.depth.cy();
+    const int off_x = static_cast<int>(cam.depth.offsetX()),
+              off_y = static_cast<int>(cam.depth.offsetY());
+    const int W = cam.image.width;
+    const int u0 = cam.crop[0], v0 = cam.crop[1], u1 = cam.crop[2], v1 = cam.crop[3];
     // The camera's centre in the end frame: back faces are skipped before projecting.
     const Eigen::Vector3f eye_end = -(R.transpose() * t);
     for (const OrientedPoint& s : samples) {
@@ -717,9 +721,9 @@ size_t seenThroughPixels(const std::vector<OrientedPoint>& samples,
       const float range = p.norm();
       const float cos_inc = -(R * s.n).dot(p) / range;
       if (cos_inc <= 0.0f) continue;  // faces away from the camera
-      const int u = static_cast<int>(std::floor(fx * p.x() / p.z() + cx + 0.5f));
-      const int v = static_cast<int>(std::floor(fy * p.y() / p.z() + cy + 0.5f));
-      if (u < 0 || v < 0 || u >= W || v >= H) continue;
+      const int u = static_cast<int>(std::floor(fx * p.x() / p.z() + cx + 0.5f)) - off_x;
+      const int v = static_cast<int>(std::floor(fy * p.y() / p.z() + cy + 0.5f)) - off_y;
+      if (u < u0 || v < v0 || u >= u1 || v >= v1) continue;
       const uint32_t key = static_cast<uint32_t>(v) * W + u;
       if (predicted) pred.push_back(key);
       // Grazing samples are not judged: their depth noise is huge and the silhouette's mixed
@@ -742,7 +746,7 @@ size_t seenThroughPixels(const std::vector<OrientedPoint>& samples,
       for (int dv = -1; dv <= 1; ++dv)
         for (int du = -1; du <= 1; ++du) {
           const int uu = u + du, vv = v + dv;
-          if (uu < 0 || vv < 0 || uu >= W || vv >= H) continue;
+          if (uu < u0 || vv < v0 || uu >= u1 || vv >= v1) continue;
           const float zm = cam.image.depthAt(uu, vv);
           if (!(zm == zm)) continue;
           ++valid;

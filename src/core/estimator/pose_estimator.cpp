@@ -41,6 +41,8 @@ struct Candidate {
   double axial_contrast = 0.0;
   /// The model and direction came from the end's track (no hypothesis decision this cycle).
   bool tracked = false;
+  /// Instances (clusters) this candidate was chosen from by its decision (1: the only one).
+  size_t instances = 1;
 };
 
 /// The last valid fit of the points of one detected label (EstimatorConfig::Tracking).
@@ -54,6 +56,17 @@ struct Track {
   double direction_margin = 0.0;
 };
 
+/// What the decisions have shown about one instance (a cluster of a label's carved points, at
+/// one place) over the last cycles (EstimatorConfig::Instances).
+struct InstanceMemory {
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();  ///< the last decided fit's origin
+  /// Mean fit cost (the refined fit's mean truncated squared residual [m^2]) of the last
+  /// `decisions` decisions (running mean).
+  double mean_cost = 0.0;
+  int decisions = 0;       ///< at most instances.memory_decisions
+  int64_t stamp_ns = 0;    ///< the last decision's cycle
+};
+
 }  // namespace
 
 struct PoseEstimator::Impl {
@@ -65,6 +78,7 @@ struct PoseEstimator::Impl {
   std::unique_ptr<ThesisBaseline> baseline;
   std::array<EndPoseFilter, kNumEnds> filters;
   std::array<Track, kNumEnds> tracks;  ///< per detected label
+  std::array<std::vector<InstanceMemory>, kNumEnds> memory;  ///< per detected label
 };
 
 PoseEstimator::PoseEstimator(const EstimatorConfig& config)
@@ -198,37 +212,23 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
                       tr.cycles < config_.tracking.redecide_every);
   }
   std::array<double, kNumEnds> seg_ms{}, reg_ms{};
-  // One label's candidate: its points, then its tracked or decided fit. The labels share nothing
-  // they write: with threads >= 2 they run in parallel.
-  auto fitLabel = [&](int l) {
+  // One instance's candidate (the points of one cluster of label l's carved points): its
+  // tracked fit when `follow_track`, else (or when the track is lost) its decided fit.
+  auto fitInstance = [&](int l, const std::vector<CloudPoint>& points, bool follow_track,
+                         Candidate& cd) {
     const bool decided_this_cycle = l == 1 && first_decides;
     auto t0 = Clock::now();
-    Candidate& cd = cand[l];
     cd.detected = static_cast<EndLabel>(l);
-    bool any_box = false;
-    for (const auto& cam : cams) any_box = any_box || cam.has_label[l];
-    if (!any_box) {
-      cd.reason = std::string("no ") + labelName(cd.detected) + " detection in any camera";
-      return;
-    }
-    if (carved[l].size() < config_.axis_fit.min_points) {
-      std::ostringstream s;
-      s << raw[l].size() << " points cut out, " << carved[l].size()
-        << " after carving (< axis_fit.min_points = " << config_.axis_fit.min_points << ")";
-      cd.reason = s.str();
-      return;
-    }
-    t0 = Clock::now();
     // Deterministic subsample to max_points.
     const size_t stride =
-        std::max<size_t>(1, (carved[l].size() + config_.profile_fit.max_points - 1) /
+        std::max<size_t>(1, (points.size() + config_.profile_fit.max_points - 1) /
                                 config_.profile_fit.max_points);
     std::vector<float> sig;
-    for (size_t i = 0; i < carved[l].size(); i += stride) {
-      cd.pts.push_back(carved[l][i].p_world);
-      sig.push_back(carved[l][i].sigma);
-      cd.cams.push_back(carved[l][i].camera);
-      cd.eyes.push_back(cams[carved[l][i].camera].T_world_depth.translation().cast<float>());
+    for (size_t i = 0; i < points.size(); i += stride) {
+      cd.pts.push_back(points[i].p_world);
+      sig.push_back(points[i].sigma);
+      cd.cams.push_back(points[i].camera);
+      cd.eyes.push_back(cams[points[i].camera].T_world_depth.translation().cast<float>());
     }
     const auto& fsc = config_.free_space;
     const auto& trc = config_.tracking;
@@ -366,8 +366,8 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
     Track& tr = impl_->tracks[l];
     const double gap_s = static_cast<double>(cycle_stamp_ns - tr.stamp_ns) * 1e-9;
     const int due = trc.redecide_every + (decided_this_cycle ? 1 : 0);
-    const bool trackable = trc.enabled && fsc.enabled && fsc.axial_scan && tr.valid &&
-                           gap_s > 0 && gap_s <= trc.max_gap;
+    const bool trackable = follow_track && trc.enabled && fsc.enabled && fsc.axial_scan &&
+                           tr.valid && gap_s > 0 && gap_s <= trc.max_gap;
     cd.tracked = trackable && tr.cycles < due;
     // A periodic decision of a continuing track re-decides the model and the direction on the
     // track's axis (no support-plane removal and axis fit).
@@ -511,6 +511,222 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
       }
     }
     cd.ok = true;
+  };
+  // One label's candidate: its carved points split into instances (clusters); a continuing track
+  // follows the instance at its prediction, otherwise the largest instances are decided and the
+  // best-fitting valid one is the label's candidate. The labels share nothing they write: with
+  // threads >= 2 they run in parallel.
+  auto fitLabel = [&](int l) {
+    Candidate& cd = cand[l];
+    cd.detected = static_cast<EndLabel>(l);
+    bool any_box = false;
+    for (const auto& cam : cams) any_box = any_box || cam.has_label[l];
+    if (!any_box) {
+      cd.reason = std::string("no ") + labelName(cd.detected) + " detection in any camera";
+      return;
+    }
+    if (carved[l].size() < config_.axis_fit.min_points) {
+      std::ostringstream s;
+      s << raw[l].size() << " points cut out, " << carved[l].size()
+        << " after carving (< axis_fit.min_points = " << config_.axis_fit.min_points << ")";
+      cd.reason = s.str();
+      return;
+    }
+    const auto t0 = Clock::now();
+    std::vector<std::vector<size_t>> clusters = euclideanClusters(
+        carved[l], config_.instances.cluster_tolerance, config_.axis_fit.min_points);
+    {
+      // An instance is measured by at least carving.min_cameras cameras (fewer when fewer have
+      // a box of the label): one camera that calls the other end by this label does not make one.
+      int with_label = 0;
+      for (const auto& cam : cams) with_label += cam.has_label[l] ? 1 : 0;
+      const size_t need = static_cast<size_t>(std::min(config_.carving.min_cameras, with_label));
+      std::vector<std::vector<size_t>> kept;
+      for (auto& c : clusters) {
+        std::set<uint16_t> seen;
+        for (size_t i : c) seen.insert(carved[l][i].camera);
+        if (seen.size() >= need) kept.push_back(std::move(c));
+      }
+      clusters = std::move(kept);
+    }
+    auto pointsOf = [&](size_t k) {
+      std::vector<CloudPoint> p;
+      p.reserve(clusters[k].size());
+      for (size_t i : clusters[k]) p.push_back(carved[l][i]);
+      return p;
+    };
+    seg_ms[l] += msSince(t0);
+    if (clusters.empty()) {
+      std::ostringstream s;
+      s << carved[l].size() << " points after carving, no cluster of axis_fit.min_points = "
+        << config_.axis_fit.min_points << " from carving.min_cameras = "
+        << config_.carving.min_cameras << " cameras (instances.cluster_tolerance = "
+        << config_.instances.cluster_tolerance << " m)";
+      cd.reason = s.str();
+      return;
+    }
+    // The instances' memory: entries not decided for instances.memory_s are forgotten.
+    const auto& ic = config_.instances;
+    std::vector<InstanceMemory>& memory = impl_->memory[l];
+    memory.erase(std::remove_if(memory.begin(), memory.end(),
+                                [&](const InstanceMemory& m) {
+                                  const double age = (cycle_stamp_ns - m.stamp_ns) * 1e-9;
+                                  return !(age >= 0 && age <= ic.memory_s);
+                                }),
+                 memory.end());
+    // A continuing track takes the instance with a point nearest its predicted origin.
+    const Track& tr = impl_->tracks[l];
+    const double gap_s = static_cast<double>(cycle_stamp_ns - tr.stamp_ns) * 1e-9;
+    int track_k = -1;
+    if (tr.valid && gap_s > 0 && gap_s <= config_.tracking.max_gap) {
+      Eigen::Vector3d move = tr.velocity * gap_s;
+      if (move.norm() > config_.tracking.max_prediction)
+        move *= config_.tracking.max_prediction / move.norm();
+      const Eigen::Vector3f pred = (tr.origin + move).cast<float>();
+      size_t best_k = 0;
+      float best_d2 = std::numeric_limits<float>::infinity();
+      for (size_t k = 0; k < clusters.size(); ++k)
+        for (size_t i : clusters[k]) {
+          const float d2 = (carved[l][i].p_world - pred).squaredNorm();
+          if (d2 < best_d2) best_d2 = d2, best_k = k;
+        }
+      if (best_d2 <= ic.track_gate * ic.track_gate) track_k = static_cast<int>(best_k);
+    }
+    // The instances decided this cycle: the track's (when its fit is not simply tracked: a
+    // periodic decision, or the track was lost) and the largest others.
+    std::vector<Candidate> inst;
+    if (track_k >= 0) {
+      Candidate c;
+      fitInstance(l, pointsOf(static_cast<size_t>(track_k)), true, c);
+      if (c.tracked) {
+        cd = std::move(c);
+        return;
+      }
+      inst.push_back(std::move(c));
+    }
+    for (size_t k = 0; k < clusters.size() && inst.size() < static_cast<size_t>(ic.max_instances);
+         ++k) {
+      if (static_cast<int>(k) == track_k) continue;
+      inst.emplace_back();
+      fitInstance(l, pointsOf(k), false, inst.back());
+    }
+    const size_t n = inst.size();
+    // Instances that fit this label's model compete; the other model's (the other end, called
+    // by this label in some cameras) only when none does (the label is then corrected).
+    bool any_native = false;
+    for (const Candidate& c : inst) any_native = any_native || (c.ok && c.fit.label == cd.detected);
+    // Each competing instance's fit cost joins its memory entry (the one within
+    // instances.track_gate of its origin); instances compete by their entries' mean cost, so
+    // that the evidence of earlier decisions counts (one cycle's costs tell a 4.5" pipe's box
+    // end from a 5" one's only about four times in five). Costs over the points' depth-noise
+    // variance were tried: they favour the far, noisier end (cluttered: the other pipe's pin).
+    struct Competitor {
+      int inst = -1;  // index into inst; -1: a memory entry whose instance has no fit this cycle
+      Eigen::Vector3d origin;
+      double mean = 0.0;
+      int decisions = 0;
+    };
+    std::vector<Competitor> comp;
+    std::vector<bool> updated(memory.size(), false);
+    for (size_t k = 0; k < n; ++k) {
+      if (!inst[k].ok || (any_native && inst[k].fit.label != cd.detected)) continue;
+      int m = -1;
+      double m_d = ic.track_gate;
+      for (size_t e = 0; e < memory.size(); ++e) {
+        const double d = (memory[e].origin - inst[k].fit.origin).norm();
+        if (d <= m_d) m_d = d, m = static_cast<int>(e);
+      }
+      if (m < 0) {
+        memory.emplace_back();
+        updated.push_back(false);
+        m = static_cast<int>(memory.size()) - 1;
+      }
+      InstanceMemory& e = memory[m];
+      e.decisions = std::min(e.decisions + 1, ic.memory_decisions);
+      e.mean_cost += (inst[k].fit.cost - e.mean_cost) / e.decisions;
+      e.origin = inst[k].fit.origin;
+      e.stamp_ns = cycle_stamp_ns;
+      updated[m] = true;
+      comp.push_back({static_cast<int>(k), e.origin, e.mean_cost, e.decisions});
+    }
+    // An instance with no fit this cycle (its points carved away where cameras are blocked,
+    // its fit rejected) that is still there (cut out of this label's boxes) competes with its
+    // memory: one that fits clearly worse is not taken in its place. (An end that has moved
+    // away leaves no points at its old place.)
+    for (size_t e = 0; e < memory.size(); ++e) {
+      if (updated[e] || memory[e].decisions < ic.min_decisions) continue;
+      const Eigen::Vector3f o = memory[e].origin.cast<float>();
+      const float gate2 = static_cast<float>(ic.track_gate * ic.track_gate);
+      size_t near = 0;
+      for (const auto& p : raw[l]) near += (p.p_world - o).squaredNorm() <= gate2 ? 1 : 0;
+      if (near >= config_.axis_fit.min_points)
+        comp.push_back({-1, memory[e].origin, memory[e].mean_cost, memory[e].decisions});
+    }
+    std::sort(comp.begin(), comp.end(),
+              [](const Competitor& a, const Competitor& b) { return a.mean < b.mean; });
+    if (comp.empty() || (comp[0].inst < 0 && comp.size() == 1)) {
+      cd = std::move(inst[0]);
+      if (n > 1) cd.reason = "no instance fits (" + std::to_string(n) + "); the first: " + cd.reason;
+      return;
+    }
+    // A track leaves its instance only for one that is better over at least
+    // instances.min_decisions decisions.
+    const bool track_fits = track_k >= 0 && inst[0].ok &&
+                            (!any_native || inst[0].fit.label == cd.detected);
+    if (track_fits && comp[0].inst > 0 && comp[0].decisions < ic.min_decisions) {
+      cd = std::move(inst[0]);
+      cd.instances = n;
+      return;
+    }
+    auto at = [](const Eigen::Vector3d& o) {
+      std::ostringstream s;
+      s.precision(3);
+      s << "(" << o.x() << ", " << o.y() << ", " << o.z() << ")";
+      return s.str();
+    };
+    if (comp[0].inst < 0) {
+      std::ostringstream s;
+      s.precision(3);
+      s << "the " << labelName(cd.detected) << " instance at " << at(comp[0].origin)
+        << " fits best (mean truncated squared residual " << comp[0].mean * 1e6
+        << " mm^2 over its last " << comp[0].decisions
+        << " decisions) but has no fit this cycle; not taking another in its place";
+      cd = Candidate();
+      cd.detected = static_cast<EndLabel>(l);
+      cd.reason = s.str();
+      return;
+    }
+    // Several instances and too few decisions to choose between them (start-up, a new one):
+    // no pose until the best has instances.min_decisions.
+    if (comp.size() > 1 && comp[0].decisions < ic.min_decisions) {
+      std::ostringstream s;
+      s << comp.size() << " " << labelName(cd.detected) << " instances in the work zone, the best "
+        << "fitting one at " << at(comp[0].origin) << " decided in " << comp[0].decisions
+        << " cycle(s) of instances.min_decisions = " << ic.min_decisions << ": not choosing yet";
+      cd = Candidate();
+      cd.detected = static_cast<EndLabel>(l);
+      cd.reason = s.str();
+      return;
+    }
+    // Two ends of the same label that the model fits about equally well (another pipe of the
+    // same size beside this one): which one the machine wants is not in the data. None is
+    // published, and the reason names both.
+    if (comp.size() > 1 && comp[1].mean < (1.0 + ic.min_cost_margin) * comp[0].mean) {
+      std::ostringstream s;
+      s.precision(3);
+      s << labelName(cd.detected) << " instances fit alike (mean truncated squared residual over "
+        << "their last decisions, mm^2): " << comp[0].mean * 1e6 << " at " << at(comp[0].origin)
+        << ", " << comp[1].mean * 1e6 << " at " << at(comp[1].origin)
+        << "; not choosing (instances.min_cost_margin = " << ic.min_cost_margin
+        << "; a narrower work_zone leaves the other out)";
+      cd = Candidate();
+      cd.detected = static_cast<EndLabel>(l);
+      cd.reason = s.str();
+      return;
+    }
+    const int best = comp[0].inst;
+    cd = std::move(inst[best]);
+    cd.instances = n;
   };
   if (config_.threads >= 2) {
     auto other = std::async(std::launch::async, fitLabel, 1);

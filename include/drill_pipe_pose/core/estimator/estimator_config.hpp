@@ -57,7 +57,41 @@ struct EstimatorConfig {
     /// label and see the point inside their colour image).
     double vote_fraction = 0.75;
     double margin_px = 8.0;  ///< [colour px] boxes grown by this when voting (box jitter)
+    /// [m] A camera whose depth at the point's pixel is nearer than the point by more than this
+    /// sees something in front of it (a barrel, a person): it cannot see the point and does not
+    /// vote (in cluttered it would veto the box end it cannot see). More than the tool joint's
+    /// diameter, so that the joint's near side does not hide the floor at its base (0.05 kept
+    /// that floor and tilted the box end's axis). Only the depth a cropping sensor node sends is
+    /// read (the bounding rectangle of the boxes' frusta, cropDepthToBoxes), so that full and
+    /// cropped depth give the same poses. 0 = every camera with the point in its image votes.
+    double occlusion_margin = 0.25;
   } carving;
+
+  /// Instances: the carved points of a label split into clusters (connected grid cells); each
+  /// cluster of at least axis_fit.min_points, measured by at least carving.min_cameras cameras
+  /// (fewer when fewer have a box of the label), is one candidate end (another pipe's end, a
+  /// detection on clutter). A continuing track follows the cluster nearest its prediction. When
+  /// there is no track, and at the track's periodic decisions, the `max_instances` largest are
+  /// decided; each keeps a memory of its decisions' costs (mean over the last
+  /// `memory_decisions`), and the instance with the lowest mean cost is the end.
+  struct Instances {
+    /// [m] grid cell edge (see euclideanClusters). 0.04 splits the sparse far side of an angled
+    /// joint off (thesis_angled box end: 82 % within 1 cm / 1 deg instead of 90 %).
+    double cluster_tolerance = 0.08;
+    int max_instances = 3;            ///< clusters decided (the track's and the largest others)
+    /// [m] a track follows the cluster with a point this close to its predicted origin; a
+    /// decided instance joins the memory entry this close to its origin.
+    double track_gate = 0.2;
+    /// The best instance is taken only when the next one's mean cost is larger by at least this
+    /// fraction; otherwise the label has no pose this cycle (two same-size pipes in the work
+    /// zone: which one is meant is not in the data), and a track keeps its instance.
+    double min_cost_margin = 0.04;
+    /// A track moves to another instance only when that one is better over at least this many
+    /// decisions.
+    int min_decisions = 3;
+    int memory_decisions = 30;  ///< decisions averaged per instance (running mean)
+    double memory_s = 3.0;      ///< [s] an instance not decided for this long is forgotten
+  } instances;
 
   /// Point-set limits and the robust cylinder-axis fit (radius known: tool-joint OD / 2).
   struct AxisFit {

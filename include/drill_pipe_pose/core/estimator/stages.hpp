@@ -36,6 +36,10 @@ struct CycleCamera {
   std::vector<DetectionBox> boxes;
   /// Whether this camera has at least one box of each label.
   std::array<bool, kNumEnds> has_label{{false, false}};
+  /// [u0, v0, u1) x [v0, v1) of the delivered depth image: the pixels a cropping sensor node
+  /// sends (depthCropRect). Depth beyond the cut-out (occlusion, seen-through pixels) is read
+  /// only there, so that full and cropped depth give the same poses. Empty without boxes.
+  std::array<int, 4> crop{{0, 0, 0, 0}};
 };
 
 /// Builds a CycleCamera from one input; throws InputError naming the camera and the field.
@@ -61,6 +65,13 @@ float depthSigma(const EstimatorConfig::Noise& noise, double z);
 std::vector<CloudPoint> carve(const std::vector<CloudPoint>& points, EndLabel label,
                               const std::vector<CycleCamera>& cameras,
                               const EstimatorConfig::Carving& config);
+
+/// Clusters of `points`: connected occupied cells of a grid of edge `tolerance` [m] (cells that
+/// touch, corners included, join; two points closer than `tolerance` always share a cluster,
+/// points up to 2 sqrt(3) tolerance apart may). Clusters of at least `min_points`, largest
+/// first, as indices into `points` (ascending within a cluster). Deterministic.
+std::vector<std::vector<size_t>> euclideanClusters(const std::vector<CloudPoint>& points,
+                                                   double tolerance, size_t min_points);
 
 /// An infinite line: a point on it and a unit direction (sign arbitrary).
 struct AxisLine {
