@@ -185,7 +185,6 @@ TEST(EstimatorOnSimulator, CroppedDepthGivesTheSamePosesAsFull) {
   EstimatorConfig cfg;
   cfg.work_zone.min = simulator->workZone().min;
   cfg.work_zone.max = simulator->workZone().max;
-
   PoseEstimator on_full(cfg), on_cropped(cfg);
   int valid = 0;
   size_t full_px = 0, cropped_px = 0;
