@@ -65,6 +65,7 @@ struct InstanceMemory {
   double mean_cost = 0.0;
   int decisions = 0;       ///< at most instances.memory_decisions
   int64_t stamp_ns = 0;    ///< the last decision's cycle
+  bool chosen = false;     ///< the label's end was this instance at its last decided pose
 };
 
 }  // namespace
@@ -622,6 +623,7 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
     // variance were tried: they favour the far, noisier end (cluttered: the other pipe's pin).
     struct Competitor {
       int inst = -1;  // index into inst; -1: a memory entry whose instance has no fit this cycle
+      size_t mem = 0;  // index into memory
       Eigen::Vector3d origin;
       double mean = 0.0;
       int decisions = 0;
@@ -647,7 +649,8 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
       e.origin = inst[k].fit.origin;
       e.stamp_ns = cycle_stamp_ns;
       updated[m] = true;
-      comp.push_back({static_cast<int>(k), e.origin, e.mean_cost, e.decisions});
+      comp.push_back({static_cast<int>(k), static_cast<size_t>(m), e.origin, e.mean_cost,
+                      e.decisions});
     }
     // An instance with no fit this cycle (its points carved away where cameras are blocked,
     // its fit rejected) that is still there (cut out of this label's boxes) competes with its
@@ -660,7 +663,7 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
       size_t near = 0;
       for (const auto& p : raw[l]) near += (p.p_world - o).squaredNorm() <= gate2 ? 1 : 0;
       if (near >= config_.axis_fit.min_points)
-        comp.push_back({-1, memory[e].origin, memory[e].mean_cost, memory[e].decisions});
+        comp.push_back({-1, e, memory[e].origin, memory[e].mean_cost, memory[e].decisions});
     }
     std::sort(comp.begin(), comp.end(),
               [](const Competitor& a, const Competitor& b) { return a.mean < b.mean; });
@@ -669,14 +672,30 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
       if (n > 1) cd.reason = "no instance fits (" + std::to_string(n) + "); the first: " + cd.reason;
       return;
     }
-    // A track leaves its instance only for one that is better over at least
+    // The label's end is taken from `comp[c]`: its memory entry is marked as the chosen one.
+    auto take = [&](size_t c) {
+      for (auto& e : memory) e.chosen = false;
+      memory[comp[c].mem].chosen = true;
+      cd = std::move(inst[comp[c].inst]);
+      cd.instances = n;
+    };
+    // The incumbent - the track's instance, else the one chosen at the last decided pose - keeps
+    // its place (the choice was clear when it was made; a track lost for a cycle does not undo
+    // it) unless another fits better by instances.min_cost_margin over at least
     // instances.min_decisions decisions.
     const bool track_fits = track_k >= 0 && inst[0].ok &&
                             (!any_native || inst[0].fit.label == cd.detected);
-    if (track_fits && comp[0].inst > 0 && comp[0].decisions < ic.min_decisions) {
-      cd = std::move(inst[0]);
-      cd.instances = n;
-      return;
+    int incumbent = -1;
+    for (size_t c = 0; c < comp.size(); ++c)
+      if (comp[c].inst >= 0 && (track_fits ? comp[c].inst == 0 : memory[comp[c].mem].chosen))
+        incumbent = static_cast<int>(c);
+    if (incumbent >= 0) {
+      const bool challenged = incumbent != 0 && comp[0].decisions >= ic.min_decisions &&
+                              (1.0 + ic.min_cost_margin) * comp[0].mean <= comp[incumbent].mean;
+      if (!challenged) {
+        take(static_cast<size_t>(incumbent));
+        return;
+      }
     }
     auto at = [](const Eigen::Vector3d& o) {
       std::ostringstream s;
@@ -724,9 +743,7 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
       cd.reason = s.str();
       return;
     }
-    const int best = comp[0].inst;
-    cd = std::move(inst[best]);
-    cd.instances = n;
+    take(0);
   };
   if (config_.threads >= 2) {
     auto other = std::async(std::launch::async, fitLabel, 1);
