@@ -482,6 +482,61 @@ TEST(Instances, ClustersAreConnectedGroupsLargestFirst) {
   EXPECT_EQ(euclideanClusters(pts, 1.0, 20).size(), 2u);  // the blobs join
 }
 
+TEST(Instances, ChoiceByMeanCostWithIncumbentAmbiguityAndAbsentBetterOne) {
+  const EstimatorConfig::Instances ic;  // margin 0.04, 3 decisions, 30 averaged, 3 s memory
+  const Eigen::Vector3d a(1, 1, 1), b(2, 1, 1);
+  const int64_t dt = 33000000;
+  size_t near_a = 100;  // cut-out points at A's place
+  auto near = [&](const Eigen::Vector3d& o, double) { return (o - a).norm() < 0.1 ? near_a : 0; };
+  auto fits = [&](double cost_a, double cost_b, bool a_fits = true) {
+    return std::vector<InstanceFit>{{a_fits, a, cost_a}, {true, b, cost_b}};
+  };
+  std::vector<InstanceMemory> memory;
+  int64_t t = 0;
+  // A fits 20 % better: no choice before min_decisions, then A.
+  for (int k = 0; k < 5; ++k, t += dt) {
+    SCOPED_TRACE("cycle " + std::to_string(k));
+    const InstanceChoice c = chooseInstance(&memory, fits(1.0e-4, 1.2e-4), -1, t, near, 40, ic, "box_end");
+    if (k < ic.min_decisions - 1) {
+      EXPECT_EQ(c.index, -1);
+      EXPECT_NE(c.reason.find("not choosing yet"), std::string::npos) << c.reason;
+    } else {
+      EXPECT_EQ(c.index, 0) << c.reason;
+    }
+  }
+  ASSERT_EQ(memory.size(), 2u);
+  // A has no fit this cycle but is still there: B is not taken in its place.
+  InstanceChoice c = chooseInstance(&memory, fits(0, 1.2e-4, false), -1, t, near, 40, ic, "box_end");
+  EXPECT_EQ(c.index, -1);
+  EXPECT_NE(c.reason.find("no fit this cycle"), std::string::npos) << c.reason;
+  t += dt;
+  // B now fits better: A, the incumbent, keeps its place until B's mean is lower by the margin.
+  int switched = -1;
+  for (int k = 0; k < 40 && switched < 0; ++k, t += dt) {
+    c = chooseInstance(&memory, fits(1.2e-4, 1.0e-4), -1, t, near, 40, ic, "box_end");
+    ASSERT_GE(c.index, 0) << c.reason;
+    if (c.index == 1) switched = k;
+  }
+  EXPECT_GT(switched, 0);
+  EXPECT_LT(switched, 30);
+  // A moved away (no points at its place) and fails: B is taken.
+  near_a = 0;
+  c = chooseInstance(&memory, fits(0, 1.0e-4, false), -1, t, near, 40, ic, "box_end");
+  EXPECT_EQ(c.index, 1) << c.reason;
+  // Two alike, after a gap longer than memory_s (memory forgotten): no pose, both named.
+  t += static_cast<int64_t>((ic.memory_s + 1) * 1e9);
+  for (int k = 0; k < 4; ++k, t += dt)
+    c = chooseInstance(&memory, fits(1.0e-4, 1.01e-4), -1, t, near, 40, ic, "pin_end");
+  EXPECT_EQ(memory.size(), 2u);
+  EXPECT_EQ(c.index, -1);
+  EXPECT_NE(c.reason.find("pin_end instances fit alike"), std::string::npos) << c.reason;
+  EXPECT_NE(c.reason.find("(1, 1, 1)"), std::string::npos) << c.reason;
+  EXPECT_NE(c.reason.find("(2, 1, 1)"), std::string::npos) << c.reason;
+  // A track keeps its instance while the two stay alike.
+  c = chooseInstance(&memory, fits(1.0e-4, 1.01e-4), 1, t, near, 40, ic, "pin_end");
+  EXPECT_EQ(c.index, 1) << c.reason;
+}
+
 TEST(AxisFit, KnownAxisUnderNoiseAndOutliers) {
   for (uint32_t seed = 1; seed <= 10; ++seed) {
     SCOPED_TRACE("seed " + std::to_string(seed));

@@ -1,4 +1,4 @@
-// Instances of a label: clusters of its carved points.
+// Instances of a label: clusters of its carved points, and the choice among them.
 //
 // Not pcl::EuclideanClusterExtraction: with the tolerance needed to keep a joint whole (several
 // centimetres) its radius searches return hundreds of neighbours per point, and a cycle's ~3000
@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <cmath>
 #include <numeric>
+#include <sstream>
 #include <unordered_map>
 
 #include "drill_pipe_pose/core/estimator/stages.hpp"
@@ -66,6 +67,113 @@ std::vector<std::vector<size_t>> euclideanClusters(const std::vector<CloudPoint>
     return a.size() != b.size() ? a.size() > b.size() : a.front() < b.front();
   });
   return out;
+}
+
+namespace {
+
+std::string at(const Eigen::Vector3d& o) {
+  std::ostringstream s;
+  s.precision(3);
+  s << "(" << o.x() << ", " << o.y() << ", " << o.z() << ")";
+  return s.str();
+}
+
+}  // namespace
+
+InstanceChoice chooseInstance(std::vector<InstanceMemory>* memory_ptr,
+                              const std::vector<InstanceFit>& fits, int track, int64_t stamp_ns,
+                              const std::function<size_t(const Eigen::Vector3d&, double)>& points_near,
+                              size_t min_points, const EstimatorConfig::Instances& ic,
+                              const std::string& label) {
+  std::vector<InstanceMemory>& memory = *memory_ptr;
+  memory.erase(std::remove_if(memory.begin(), memory.end(),
+                              [&](const InstanceMemory& m) {
+                                const double age = static_cast<double>(stamp_ns - m.stamp_ns) * 1e-9;
+                                return !(age >= 0 && age <= ic.memory_s);
+                              }),
+               memory.end());
+  struct Competitor {
+    int fit = -1;    // index into fits; -1: a memory entry with no fit this cycle
+    size_t mem = 0;  // index into memory
+    double mean = 0.0;
+    int decisions = 0;
+  };
+  std::vector<Competitor> comp;
+  std::vector<bool> updated(memory.size(), false);
+  for (size_t k = 0; k < fits.size(); ++k) {
+    if (!fits[k].competes) continue;
+    int m = -1;
+    double m_d = ic.track_gate;
+    for (size_t e = 0; e < memory.size(); ++e) {
+      const double d = (memory[e].origin - fits[k].origin).norm();
+      if (d <= m_d) m_d = d, m = static_cast<int>(e);
+    }
+    if (m < 0) {
+      memory.emplace_back();
+      updated.push_back(false);
+      m = static_cast<int>(memory.size()) - 1;
+    }
+    InstanceMemory& e = memory[m];
+    e.decisions = std::min(e.decisions + 1, ic.memory_decisions);
+    e.mean_cost += (fits[k].cost - e.mean_cost) / e.decisions;
+    e.origin = fits[k].origin;
+    e.stamp_ns = stamp_ns;
+    updated[m] = true;
+    comp.push_back({static_cast<int>(k), static_cast<size_t>(m), e.mean_cost, e.decisions});
+  }
+  InstanceChoice choice;
+  if (comp.empty()) return choice;
+  for (size_t e = 0; e < memory.size(); ++e)
+    if (!updated[e] && memory[e].decisions >= ic.min_decisions &&
+        points_near(memory[e].origin, ic.track_gate) >= min_points)
+      comp.push_back({-1, e, memory[e].mean_cost, memory[e].decisions});
+  std::stable_sort(comp.begin(), comp.end(),
+                   [](const Competitor& a, const Competitor& b) { return a.mean < b.mean; });
+  auto take = [&](size_t c) {
+    for (auto& e : memory) e.chosen = false;
+    memory[comp[c].mem].chosen = true;
+    choice.index = comp[c].fit;
+    return choice;
+  };
+  const Eigen::Vector3d& best_at = memory[comp[0].mem].origin;
+  // The incumbent keeps its place unless clearly beaten.
+  const bool track_competes =
+      track >= 0 && static_cast<size_t>(track) < fits.size() && fits[track].competes;
+  int incumbent = -1;
+  for (size_t c = 0; c < comp.size(); ++c)
+    if (comp[c].fit >= 0 && (track_competes ? comp[c].fit == track : memory[comp[c].mem].chosen))
+      incumbent = static_cast<int>(c);
+  if (incumbent >= 0) {
+    const bool challenged = incumbent != 0 && comp[0].decisions >= ic.min_decisions &&
+                            (1.0 + ic.min_cost_margin) * comp[0].mean <= comp[incumbent].mean;
+    if (!challenged) return take(static_cast<size_t>(incumbent));
+  }
+  std::ostringstream s;
+  s.precision(3);
+  if (comp[0].fit < 0) {
+    s << "the " << label << " instance at " << at(best_at) << " fits best (mean truncated squared "
+      << "residual " << comp[0].mean * 1e6 << " mm^2 over its last " << comp[0].decisions
+      << " decisions) but has no fit this cycle; not taking another in its place";
+    choice.reason = s.str();
+    return choice;
+  }
+  if (comp.size() > 1 && comp[0].decisions < ic.min_decisions) {
+    s << comp.size() << " " << label << " instances in the work zone, the best fitting one at "
+      << at(best_at) << " decided in " << comp[0].decisions
+      << " cycle(s) of instances.min_decisions = " << ic.min_decisions << ": not choosing yet";
+    choice.reason = s.str();
+    return choice;
+  }
+  if (comp.size() > 1 && comp[1].mean < (1.0 + ic.min_cost_margin) * comp[0].mean) {
+    s << label << " instances fit alike (mean truncated squared residual over their last "
+      << "decisions, mm^2): " << comp[0].mean * 1e6 << " at " << at(best_at) << ", "
+      << comp[1].mean * 1e6 << " at " << at(memory[comp[1].mem].origin)
+      << "; not choosing (instances.min_cost_margin = " << ic.min_cost_margin
+      << "; a narrower work_zone leaves the other out)";
+    choice.reason = s.str();
+    return choice;
+  }
+  return take(0);
 }
 
 }  // namespace drill_pipe_pose

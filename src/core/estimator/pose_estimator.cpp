@@ -41,8 +41,6 @@ struct Candidate {
   double axial_contrast = 0.0;
   /// The model and direction came from the end's track (no hypothesis decision this cycle).
   bool tracked = false;
-  /// Instances (clusters) this candidate was chosen from by its decision (1: the only one).
-  size_t instances = 1;
 };
 
 /// The last valid fit of the points of one detected label (EstimatorConfig::Tracking).
@@ -54,18 +52,6 @@ struct Track {
   int64_t stamp_ns = 0;
   int cycles = 0;  ///< cycles since the last full decision (1 = this track's decision cycle)
   double direction_margin = 0.0;
-};
-
-/// What the decisions have shown about one instance (a cluster of a label's carved points, at
-/// one place) over the last cycles (EstimatorConfig::Instances).
-struct InstanceMemory {
-  Eigen::Vector3d origin = Eigen::Vector3d::Zero();  ///< the last decided fit's origin
-  /// Mean fit cost (the refined fit's mean truncated squared residual [m^2]) of the last
-  /// `decisions` decisions (running mean).
-  double mean_cost = 0.0;
-  int decisions = 0;       ///< at most instances.memory_decisions
-  int64_t stamp_ns = 0;    ///< the last decision's cycle
-  bool chosen = false;     ///< the label's end was this instance at its last decided pose
 };
 
 }  // namespace
@@ -566,15 +552,7 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
       cd.reason = s.str();
       return;
     }
-    // The instances' memory: entries not decided for instances.memory_s are forgotten.
     const auto& ic = config_.instances;
-    std::vector<InstanceMemory>& memory = impl_->memory[l];
-    memory.erase(std::remove_if(memory.begin(), memory.end(),
-                                [&](const InstanceMemory& m) {
-                                  const double age = (cycle_stamp_ns - m.stamp_ns) * 1e-9;
-                                  return !(age >= 0 && age <= ic.memory_s);
-                                }),
-                 memory.end());
     // A continuing track takes the instance with a point nearest its predicted origin.
     const Track& tr = impl_->tracks[l];
     const double gap_s = static_cast<double>(cycle_stamp_ns - tr.stamp_ns) * 1e-9;
@@ -611,139 +589,35 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
       inst.emplace_back();
       fitInstance(l, pointsOf(k), false, inst.back());
     }
-    const size_t n = inst.size();
     // Instances that fit this label's model compete; the other model's (the other end, called
     // by this label in some cameras) only when none does (the label is then corrected).
     bool any_native = false;
     for (const Candidate& c : inst) any_native = any_native || (c.ok && c.fit.label == cd.detected);
-    // Each competing instance's fit cost joins its memory entry (the one within
-    // instances.track_gate of its origin); instances compete by their entries' mean cost, so
-    // that the evidence of earlier decisions counts (one cycle's costs tell a 4.5" pipe's box
-    // end from a 5" one's only about four times in five). Costs over the points' depth-noise
-    // variance were tried: they favour the far, noisier end (cluttered: the other pipe's pin).
-    struct Competitor {
-      int inst = -1;  // index into inst; -1: a memory entry whose instance has no fit this cycle
-      size_t mem = 0;  // index into memory
-      Eigen::Vector3d origin;
-      double mean = 0.0;
-      int decisions = 0;
-    };
-    std::vector<Competitor> comp;
-    std::vector<bool> updated(memory.size(), false);
-    for (size_t k = 0; k < n; ++k) {
-      if (!inst[k].ok || (any_native && inst[k].fit.label != cd.detected)) continue;
-      int m = -1;
-      double m_d = ic.track_gate;
-      for (size_t e = 0; e < memory.size(); ++e) {
-        const double d = (memory[e].origin - inst[k].fit.origin).norm();
-        if (d <= m_d) m_d = d, m = static_cast<int>(e);
-      }
-      if (m < 0) {
-        memory.emplace_back();
-        updated.push_back(false);
-        m = static_cast<int>(memory.size()) - 1;
-      }
-      InstanceMemory& e = memory[m];
-      e.decisions = std::min(e.decisions + 1, ic.memory_decisions);
-      e.mean_cost += (inst[k].fit.cost - e.mean_cost) / e.decisions;
-      e.origin = inst[k].fit.origin;
-      e.stamp_ns = cycle_stamp_ns;
-      updated[m] = true;
-      comp.push_back({static_cast<int>(k), static_cast<size_t>(m), e.origin, e.mean_cost,
-                      e.decisions});
-    }
-    // An instance with no fit this cycle (its points carved away where cameras are blocked,
-    // its fit rejected) that is still there (cut out of this label's boxes) competes with its
-    // memory: one that fits clearly worse is not taken in its place. (An end that has moved
-    // away leaves no points at its old place.)
-    for (size_t e = 0; e < memory.size(); ++e) {
-      if (updated[e] || memory[e].decisions < ic.min_decisions) continue;
-      const Eigen::Vector3f o = memory[e].origin.cast<float>();
-      const float gate2 = static_cast<float>(ic.track_gate * ic.track_gate);
-      size_t near = 0;
-      for (const auto& p : raw[l]) near += (p.p_world - o).squaredNorm() <= gate2 ? 1 : 0;
-      if (near >= config_.axis_fit.min_points)
-        comp.push_back({-1, e, memory[e].origin, memory[e].mean_cost, memory[e].decisions});
-    }
-    std::sort(comp.begin(), comp.end(),
-              [](const Competitor& a, const Competitor& b) { return a.mean < b.mean; });
-    if (comp.empty() || (comp[0].inst < 0 && comp.size() == 1)) {
+    std::vector<InstanceFit> fits(inst.size());
+    for (size_t k = 0; k < inst.size(); ++k)
+      fits[k] = {inst[k].ok && (!any_native || inst[k].fit.label == cd.detected),
+                 inst[k].fit.origin, inst[k].fit.cost};
+    const InstanceChoice choice = chooseInstance(
+        &impl_->memory[l], fits, track_k >= 0 ? 0 : -1, cycle_stamp_ns,
+        [&](const Eigen::Vector3d& o, double radius) {
+          const Eigen::Vector3f of = o.cast<float>();
+          const float r2 = static_cast<float>(radius * radius);
+          size_t near = 0;
+          for (const auto& p : raw[l]) near += (p.p_world - of).squaredNorm() <= r2 ? 1 : 0;
+          return near;
+        },
+        config_.axis_fit.min_points, ic, labelName(cd.detected));
+    if (choice.index >= 0) {
+      cd = std::move(inst[static_cast<size_t>(choice.index)]);
+    } else if (!choice.reason.empty()) {
+      cd = Candidate();
+      cd.detected = static_cast<EndLabel>(l);
+      cd.reason = choice.reason;
+    } else {
       cd = std::move(inst[0]);
-      if (n > 1) cd.reason = "no instance fits (" + std::to_string(n) + "); the first: " + cd.reason;
-      return;
+      if (inst.size() > 1)
+        cd.reason = "no instance fits (" + std::to_string(inst.size()) + "); the first: " + cd.reason;
     }
-    // The label's end is taken from `comp[c]`: its memory entry is marked as the chosen one.
-    auto take = [&](size_t c) {
-      for (auto& e : memory) e.chosen = false;
-      memory[comp[c].mem].chosen = true;
-      cd = std::move(inst[comp[c].inst]);
-      cd.instances = n;
-    };
-    // The incumbent - the track's instance, else the one chosen at the last decided pose - keeps
-    // its place (the choice was clear when it was made; a track lost for a cycle does not undo
-    // it) unless another fits better by instances.min_cost_margin over at least
-    // instances.min_decisions decisions.
-    const bool track_fits = track_k >= 0 && inst[0].ok &&
-                            (!any_native || inst[0].fit.label == cd.detected);
-    int incumbent = -1;
-    for (size_t c = 0; c < comp.size(); ++c)
-      if (comp[c].inst >= 0 && (track_fits ? comp[c].inst == 0 : memory[comp[c].mem].chosen))
-        incumbent = static_cast<int>(c);
-    if (incumbent >= 0) {
-      const bool challenged = incumbent != 0 && comp[0].decisions >= ic.min_decisions &&
-                              (1.0 + ic.min_cost_margin) * comp[0].mean <= comp[incumbent].mean;
-      if (!challenged) {
-        take(static_cast<size_t>(incumbent));
-        return;
-      }
-    }
-    auto at = [](const Eigen::Vector3d& o) {
-      std::ostringstream s;
-      s.precision(3);
-      s << "(" << o.x() << ", " << o.y() << ", " << o.z() << ")";
-      return s.str();
-    };
-    if (comp[0].inst < 0) {
-      std::ostringstream s;
-      s.precision(3);
-      s << "the " << labelName(cd.detected) << " instance at " << at(comp[0].origin)
-        << " fits best (mean truncated squared residual " << comp[0].mean * 1e6
-        << " mm^2 over its last " << comp[0].decisions
-        << " decisions) but has no fit this cycle; not taking another in its place";
-      cd = Candidate();
-      cd.detected = static_cast<EndLabel>(l);
-      cd.reason = s.str();
-      return;
-    }
-    // Several instances and too few decisions to choose between them (start-up, a new one):
-    // no pose until the best has instances.min_decisions.
-    if (comp.size() > 1 && comp[0].decisions < ic.min_decisions) {
-      std::ostringstream s;
-      s << comp.size() << " " << labelName(cd.detected) << " instances in the work zone, the best "
-        << "fitting one at " << at(comp[0].origin) << " decided in " << comp[0].decisions
-        << " cycle(s) of instances.min_decisions = " << ic.min_decisions << ": not choosing yet";
-      cd = Candidate();
-      cd.detected = static_cast<EndLabel>(l);
-      cd.reason = s.str();
-      return;
-    }
-    // Two ends of the same label that the model fits about equally well (another pipe of the
-    // same size beside this one): which one the machine wants is not in the data. None is
-    // published, and the reason names both.
-    if (comp.size() > 1 && comp[1].mean < (1.0 + ic.min_cost_margin) * comp[0].mean) {
-      std::ostringstream s;
-      s.precision(3);
-      s << labelName(cd.detected) << " instances fit alike (mean truncated squared residual over "
-        << "their last decisions, mm^2): " << comp[0].mean * 1e6 << " at " << at(comp[0].origin)
-        << ", " << comp[1].mean * 1e6 << " at " << at(comp[1].origin)
-        << "; not choosing (instances.min_cost_margin = " << ic.min_cost_margin
-        << "; a narrower work_zone leaves the other out)";
-      cd = Candidate();
-      cd.detected = static_cast<EndLabel>(l);
-      cd.reason = s.str();
-      return;
-    }
-    take(0);
   };
   if (config_.threads >= 2) {
     auto other = std::async(std::launch::async, fitLabel, 1);

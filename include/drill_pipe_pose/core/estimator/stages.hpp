@@ -5,6 +5,7 @@
 #include <Eigen/Geometry>
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -72,6 +73,52 @@ std::vector<CloudPoint> carve(const std::vector<CloudPoint>& points, EndLabel la
 /// first, as indices into `points` (ascending within a cluster). Deterministic.
 std::vector<std::vector<size_t>> euclideanClusters(const std::vector<CloudPoint>& points,
                                                    double tolerance, size_t min_points);
+
+/// What the decisions have shown about one instance of a label (a cluster of its carved points,
+/// at one place) over the last cycles (EstimatorConfig::Instances).
+struct InstanceMemory {
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();  ///< the last decided fit's origin
+  /// Mean fit cost (the refined fit's mean truncated squared residual [m^2]) of the last
+  /// `decisions` decisions (running mean).
+  double mean_cost = 0.0;
+  int decisions = 0;     ///< at most instances.memory_decisions
+  int64_t stamp_ns = 0;  ///< the last decision's cycle
+  bool chosen = false;   ///< the label's end was this instance at its last decided pose
+};
+
+/// One instance decided this cycle, for chooseInstance.
+struct InstanceFit {
+  bool competes = false;  ///< a valid fit that may be the label's end (the caller decides)
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();
+  double cost = 0.0;  ///< ProfileFitResult::cost
+};
+
+/// The choice among a label's instances: `index` into the fits, or -1 with `reason`.
+struct InstanceChoice {
+  int index = -1;
+  std::string reason;
+};
+
+/// Chooses a label's end among its instances decided this cycle (`fits`; `track` is the index
+/// of the one its track followed, or -1) and updates `memory` (entries not decided for
+/// instances.memory_s are forgotten first). Each competing fit's cost joins its memory entry
+/// (the one within instances.track_gate; a new one otherwise), and instances compete by their
+/// entries' mean cost:
+///  - an entry not fitted this cycle whose place still holds at least `min_points` of the
+///    label's cut-out points (`points_near(origin, radius)`) competes too: when it is the best,
+///    none is chosen (a worse one is not taken in its place);
+///  - the incumbent (the track's instance when it competes, else the entry chosen last) keeps
+///    its place unless another is better by instances.min_cost_margin over at least
+///    instances.min_decisions decisions;
+///  - otherwise none is chosen while the best has fewer than min_decisions decisions and
+///    others compete, or while the runner-up is within min_cost_margin (two alike).
+/// Deterministic. `label` names the label in the reasons. With no competing fit, index -1 and
+/// an empty reason (the caller explains).
+InstanceChoice chooseInstance(std::vector<InstanceMemory>* memory,
+                              const std::vector<InstanceFit>& fits, int track, int64_t stamp_ns,
+                              const std::function<size_t(const Eigen::Vector3d&, double)>& points_near,
+                              size_t min_points, const EstimatorConfig::Instances& config,
+                              const std::string& label);
 
 /// An infinite line: a point on it and a unit direction (sign arbitrary).
 struct AxisLine {
