@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <random>
 
 #include "drill_pipe_pose/core/errors.hpp"
@@ -288,33 +289,25 @@ TEST(EstimatorConfig, RejectsBadKeysByName) {
       EXPECT_NE(std::string(e.what()).find(key), std::string::npos) << e.what();
     }
   };
-  EstimatorConfig c;
-  c.carving.min_cameras = 0;
-  expectRejected(c, "carving.min_cameras");
-  c = EstimatorConfig();
-  c.tracking.redecide_every = 0;
-  expectRejected(c, "tracking.redecide_every");
-  c = EstimatorConfig();
-  c.threads = 0;
-  expectRejected(c, "threads");
-  c = EstimatorConfig();
-  c.tracking.max_offset = -0.1;
-  expectRejected(c, "tracking.max_offset");
-  c = EstimatorConfig();
-  c.profile_fit.coarse_points = 5;
-  expectRejected(c, "profile_fit.coarse_points");
-  c = EstimatorConfig();
-  c.free_space.min_axial_contrast = std::nan("");
-  expectRejected(c, "free_space.min_axial_contrast");
-  c = EstimatorConfig();
-  c.carving.occlusion_margin = -0.1;
-  expectRejected(c, "carving.occlusion_margin");
-  c = EstimatorConfig();
-  c.instances.cluster_tolerance = 0;
-  expectRejected(c, "instances.cluster_tolerance");
-  c = EstimatorConfig();
-  c.instances.min_decisions = 0;
-  expectRejected(c, "instances.min_decisions");
+  // One bad key per case: the error names it.
+  const std::vector<std::pair<std::function<void(EstimatorConfig&)>, std::string>> cases = {
+      {[](EstimatorConfig& c) { c.carving.min_cameras = 0; }, "carving.min_cameras"},
+      {[](EstimatorConfig& c) { c.tracking.redecide_every = 0; }, "tracking.redecide_every"},
+      {[](EstimatorConfig& c) { c.threads = 0; }, "threads"},
+      {[](EstimatorConfig& c) { c.tracking.max_offset = -0.1; }, "tracking.max_offset"},
+      {[](EstimatorConfig& c) { c.profile_fit.coarse_points = 5; }, "profile_fit.coarse_points"},
+      {[](EstimatorConfig& c) { c.free_space.min_axial_contrast = std::nan(""); },
+       "free_space.min_axial_contrast"},
+      {[](EstimatorConfig& c) { c.carving.occlusion_margin = -0.1; }, "carving.occlusion_margin"},
+      {[](EstimatorConfig& c) { c.instances.cluster_tolerance = 0; },
+       "instances.cluster_tolerance"},
+      {[](EstimatorConfig& c) { c.instances.min_decisions = 0; }, "instances.min_decisions"},
+  };
+  for (const auto& [mutate, key] : cases) {
+    EstimatorConfig c;
+    mutate(c);
+    expectRejected(c, key);
+  }
   EXPECT_THROW(parseEstimatorMethod("icp", "test"), InputError);
   EXPECT_EQ(parseEstimatorMethod("thesis_baseline", "test"), EstimatorMethod::kThesisBaseline);
 }
