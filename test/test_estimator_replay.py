@@ -20,7 +20,7 @@ import rosbag
 import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticArray
-from drill_pipe_pose.msg import PipeEnds, SensorFrame
+from drill_pipe_pose.msg import EstimatorStatus, PipeEnds, SensorFrame
 
 PKG = "drill_pipe_pose"
 SEED = 3
@@ -46,7 +46,9 @@ class EstimatorReplay(unittest.TestCase):
                        check=True)
         cls.ends = []
         cls.diag = {}
+        cls.status = []
         rospy.Subscriber("/drill_pipe_pose/pipe_ends", PipeEnds, lambda m: cls.ends.append(m))
+        rospy.Subscriber("/drill_pipe_pose/status", EstimatorStatus, lambda m: cls.status.append(m))
         rospy.Subscriber("/diagnostics", DiagnosticArray, cls.on_diag)
 
     @classmethod
@@ -69,6 +71,7 @@ class EstimatorReplay(unittest.TestCase):
 
     def test_1_accuracy_through_the_node(self):
         rec = os.path.join(self.tmp, "estimates.bag")
+        del self.status[:]
         # Quarter speed: accuracy, not throughput (scripts/bench measures that); a CI machine
         # running the other tests beside the node must not drop cycles.
         self.play(self.bag, extra=("-r", "0.25"), record=rec)
@@ -85,6 +88,11 @@ class EstimatorReplay(unittest.TestCase):
             mean = sum(errs) / len(errs)
             self.assertLess(mean, 0.010, f"{end}: mean 3D error {mean * 1e3:.1f} mm (seed {SEED})")
             self.assertLess(sum(angles) / len(angles), 1.5, f"{end}: mean axis error (seed {SEED})")
+        # One candidate end per label in this scene: status says so.
+        self.assertGreater(len(self.status), 50, "too few status messages")
+        single = sum(list(s.instances) == [1, 1] for s in self.status)
+        self.assertGreater(single, 0.9 * len(self.status),
+                           f"instances per label: {sorted({tuple(s.instances) for s in self.status})}")
 
     def test_2_camera_stops_mid_bag(self):
         cut = os.path.join(self.tmp, "cam3_stops.bag")

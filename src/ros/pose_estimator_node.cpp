@@ -244,6 +244,7 @@ class PoseEstimatorNode {
       status.ends.push_back(out.label);
       status.points.push_back(est.points);
       status.residual.push_back(est.residual);
+      status.instances.push_back(r.instances[e]);
       ends.ends.push_back(out);
     }
     if (reported[0] && reported[1]) {

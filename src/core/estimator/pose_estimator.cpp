@@ -543,6 +543,7 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
       return p;
     };
     seg_ms[l] += msSince(t0);
+    result.instances[l] = static_cast<uint32_t>(clusters.size());
     if (clusters.empty()) {
       std::ostringstream s;
       s << carved[l].size() << " points after carving, no cluster of axis_fit.min_points = "

@@ -55,6 +55,9 @@ struct CycleResult {
   CycleTiming timing;
   std::vector<std::string> camera_errors;  ///< bad inputs, one line per skipped camera
   std::vector<std::string> cameras_used;   ///< cameras whose frames entered this cycle
+  /// Per detected label ([0] box_end, [1] pin_end): its candidate ends in the work zone (the
+  /// clusters of its carved points; EstimatorConfig::Instances).
+  std::array<uint32_t, kNumEnds> instances{{0, 0}};
   /// Debug clouds [m, world]: all fused (carved) points, and the points of each end's final fit.
   std::vector<Eigen::Vector3f> fused;
   std::array<std::vector<Eigen::Vector3f>, kNumEnds> segmented;
