@@ -489,7 +489,8 @@ TEST(Instances, ChoiceByMeanCostWithIncumbentAmbiguityAndAbsentBetterOne) {
   // A fits 20 % better: no choice before min_decisions, then A.
   for (int k = 0; k < 5; ++k, t += dt) {
     SCOPED_TRACE("cycle " + std::to_string(k));
-    const InstanceChoice c = chooseInstance(&memory, fits(1.0e-4, 1.2e-4), -1, t, near, 40, ic, "box_end");
+    const InstanceChoice c =
+        chooseInstance(&memory, fits(1.0e-4, 1.2e-4), -1, t, near, 40, ic, "box_end");
     if (k < ic.min_decisions - 1) {
       EXPECT_EQ(c.index, -1);
       EXPECT_NE(c.reason.find("not choosing yet"), std::string::npos) << c.reason;
@@ -499,7 +500,8 @@ TEST(Instances, ChoiceByMeanCostWithIncumbentAmbiguityAndAbsentBetterOne) {
   }
   ASSERT_EQ(memory.size(), 2u);
   // A has no fit this cycle but is still there: B is not taken in its place.
-  InstanceChoice c = chooseInstance(&memory, fits(0, 1.2e-4, false), -1, t, near, 40, ic, "box_end");
+  InstanceChoice c =
+      chooseInstance(&memory, fits(0, 1.2e-4, false), -1, t, near, 40, ic, "box_end");
   EXPECT_EQ(c.index, -1);
   EXPECT_NE(c.reason.find("no fit this cycle"), std::string::npos) << c.reason;
   t += dt;

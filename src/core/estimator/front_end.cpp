@@ -4,8 +4,8 @@
 #include <algorithm>
 #include <cmath>
 
-#include "drill_pipe_pose/core/errors.hpp"
 #include "drill_pipe_pose/core/depth_crop.hpp"
+#include "drill_pipe_pose/core/errors.hpp"
 #include "drill_pipe_pose/core/estimator/stages.hpp"
 
 namespace drill_pipe_pose {

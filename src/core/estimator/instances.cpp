@@ -21,8 +21,8 @@ std::vector<std::vector<size_t>> euclideanClusters(const std::vector<CloudPoint>
   if (points.empty() || points.size() < min_points || !(tolerance > 0)) return out;
   // Cells of edge `tolerance`; two occupied cells that touch (26-neighbourhood) join.
   auto key = [](int64_t x, int64_t y, int64_t z) {
-    return (static_cast<uint64_t>(x & 0x1FFFFF) << 42) | (static_cast<uint64_t>(y & 0x1FFFFF) << 21) |
-           static_cast<uint64_t>(z & 0x1FFFFF);
+    return (static_cast<uint64_t>(x & 0x1FFFFF) << 42) |
+           (static_cast<uint64_t>(y & 0x1FFFFF) << 21) | static_cast<uint64_t>(z & 0x1FFFFF);
   };
   std::unordered_map<uint64_t, int> cell_of;  // cell key -> cell index
   std::vector<std::array<int64_t, 3>> cells;
@@ -82,13 +82,13 @@ std::string at(const Eigen::Vector3d& o) {
 
 InstanceChoice chooseInstance(std::vector<InstanceMemory>* memory_ptr,
                               const std::vector<InstanceFit>& fits, int track, int64_t stamp_ns,
-                              const std::function<size_t(const Eigen::Vector3d&, double)>& points_near,
-                              size_t min_points, const EstimatorConfig::Instances& ic,
-                              const std::string& label) {
+                              const PointsNear& points_near, size_t min_points,
+                              const EstimatorConfig::Instances& ic, const std::string& label) {
   std::vector<InstanceMemory>& memory = *memory_ptr;
   memory.erase(std::remove_if(memory.begin(), memory.end(),
                               [&](const InstanceMemory& m) {
-                                const double age = static_cast<double>(stamp_ns - m.stamp_ns) * 1e-9;
+                                const double age =
+                                    static_cast<double>(stamp_ns - m.stamp_ns) * 1e-9;
                                 return !(age >= 0 && age <= ic.memory_s);
                               }),
                memory.end());

@@ -617,7 +617,8 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
     } else {
       cd = std::move(inst[0]);
       if (inst.size() > 1)
-        cd.reason = "no instance fits (" + std::to_string(inst.size()) + "); the first: " + cd.reason;
+        cd.reason =
+            "no instance fits (" + std::to_string(inst.size()) + "); the first: " + cd.reason;
     }
   };
   if (config_.threads >= 2) {

@@ -73,7 +73,8 @@ struct EstimatorConfig {
   /// detection on clutter). A continuing track follows the cluster nearest its prediction. When
   /// there is no track, and at the track's periodic decisions, the `max_instances` largest are
   /// decided; each keeps a memory of its decisions' costs (mean over the last
-  /// `memory_decisions`), and the instance with the lowest mean cost is the end.
+  /// `memory_decisions`), and the instance with the lowest mean cost is the end (chooseInstance
+  /// in stages.hpp has the rules).
   struct Instances {
     /// [m] grid cell edge (see euclideanClusters). 0.04 splits the sparse far side of an angled
     /// joint off (thesis_angled box end: 82 % within 1 cm / 1 deg instead of 90 %).
@@ -86,8 +87,8 @@ struct EstimatorConfig {
     /// fraction; otherwise the label has no pose this cycle (two same-size pipes in the work
     /// zone: which one is meant is not in the data), and a track keeps its instance.
     double min_cost_margin = 0.04;
-    /// A track moves to another instance only when that one is better over at least this many
-    /// decisions.
+    /// Decisions an instance needs before it is chosen among several, and before it can take
+    /// the place of the incumbent (the track's instance, or the one chosen last).
     int min_decisions = 3;
     int memory_decisions = 30;  ///< decisions averaged per instance (running mean)
     double memory_s = 3.0;      ///< [s] an instance not decided for this long is forgotten

@@ -114,11 +114,12 @@ struct InstanceChoice {
 ///    others compete, or while the runner-up is within min_cost_margin (two alike).
 /// Deterministic. `label` names the label in the reasons. With no competing fit, index -1 and
 /// an empty reason (the caller explains).
+/// How many of a label's cut-out points lie within `radius` [m] of `origin` [world].
+using PointsNear = std::function<size_t(const Eigen::Vector3d& origin, double radius)>;
 InstanceChoice chooseInstance(std::vector<InstanceMemory>* memory,
                               const std::vector<InstanceFit>& fits, int track, int64_t stamp_ns,
-                              const std::function<size_t(const Eigen::Vector3d&, double)>& points_near,
-                              size_t min_points, const EstimatorConfig::Instances& config,
-                              const std::string& label);
+                              const PointsNear& points_near, size_t min_points,
+                              const EstimatorConfig::Instances& config, const std::string& label);
 
 /// An infinite line: a point on it and a unit direction (sign arbitrary).
 struct AxisLine {
