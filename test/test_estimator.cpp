@@ -253,6 +253,16 @@ std::vector<CameraInput> renderAll(const Scene& scene, const std::vector<SimCame
   return out;
 }
 
+/// Every camera's CycleCamera and cut-out points (per label), as a cycle makes them.
+void cutOutAll(const std::vector<CameraInput>& inputs, const EstimatorConfig& cfg,
+               std::vector<CycleCamera>* cc, std::array<std::vector<CloudPoint>, kNumEnds>* raw) {
+  for (size_t i = 0; i < inputs.size(); ++i) {
+    cc->push_back(
+        makeCycleCamera(inputs[i].frame, inputs[i].T_world_depth, inputs[i].T_color_depth, 0));
+    cutOutCamera(cc->back(), static_cast<uint16_t>(i), cfg, raw);
+  }
+}
+
 EstimatorConfig testConfig() {
   EstimatorConfig c;
   c.work_zone.min = Eigen::Vector3d(-20, -20, 0.02);  // drops the ground
@@ -376,11 +386,7 @@ TEST(Carving, RemovesClutterSeenInsideOneCameraBoxOnly) {
   EstimatorConfig cfg = testConfig();
   std::vector<CycleCamera> cc;
   std::array<std::vector<CloudPoint>, kNumEnds> raw;
-  for (size_t i = 0; i < inputs.size(); ++i) {
-    cc.push_back(
-        makeCycleCamera(inputs[i].frame, inputs[i].T_world_depth, inputs[i].T_color_depth, 0));
-    cutOutCamera(cc.back(), i, cfg, &raw);
-  }
+  cutOutAll(inputs, cfg, &cc, &raw);
   auto axisDist = [&](const Eigen::Vector3f& p) {
     return std::hypot(p.x() - c.x(), p.y() - c.y());
   };
@@ -431,11 +437,7 @@ TEST(Carving, ACameraBlockedByAnObstacleDoesNotVetoWhatItCannotSee) {
   EstimatorConfig cfg = testConfig();
   std::vector<CycleCamera> cc;
   std::array<std::vector<CloudPoint>, kNumEnds> raw;
-  for (size_t i = 0; i < inputs.size(); ++i) {
-    cc.push_back(
-        makeCycleCamera(inputs[i].frame, inputs[i].T_world_depth, inputs[i].T_color_depth, 0));
-    cutOutCamera(cc.back(), i, cfg, &raw);
-  }
+  cutOutAll(inputs, cfg, &cc, &raw);
   auto onA = [&](const std::vector<CloudPoint>& pts) {
     size_t n = 0;
     for (const auto& p : pts) n += std::hypot(p.p_world.x() - a.x(), p.p_world.y() - a.y()) < 0.12;
