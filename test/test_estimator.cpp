@@ -309,6 +309,8 @@ TEST(EstimatorConfig, RejectsBadKeysByName) {
       {[](EstimatorConfig& c) { c.free_space.min_axial_contrast = std::nan(""); },
        "free_space.min_axial_contrast"},
       {[](EstimatorConfig& c) { c.carving.occlusion_margin = -0.1; }, "carving.occlusion_margin"},
+      {[](EstimatorConfig& c) { c.profile_fit.support_clearance = -0.01; },
+       "profile_fit.support_clearance"},
       {[](EstimatorConfig& c) { c.instances.cluster_tolerance = 0; },
        "instances.cluster_tolerance"},
       {[](EstimatorConfig& c) { c.instances.min_decisions = 0; }, "instances.min_decisions"},
@@ -693,6 +695,59 @@ TEST(SupportPlane, RemovesAFloorRingButNotTheJointsEndFace) {
   for (size_t k : keep) (k < joint.size() ? joint_kept : floor_kept) += 1;
   EXPECT_LT(floor_kept, 15u);
   EXPECT_GT(joint_kept, joint.size() * 9 / 10);
+}
+
+TEST(SupportPlane, FindsTheLevelFloorUnderAStandingJointOnly) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> uni(-1, 1);
+  std::normal_distribution<double> gauss(0, 0.006);
+  const double R = 0.08415, floor_z = 0.4;
+  AxisLine vertical;  // through (0, 0), along z
+  // A vertical joint standing 0.25 m out of a floor at floor_z, and its end face.
+  std::vector<Eigen::Vector3f> joint, floor_ring;
+  for (int i = 0; i < 600; ++i) {
+    const double phi = M_PI * uni(rng), z = floor_z + 0.125 * (uni(rng) + 1);
+    joint.emplace_back((R + gauss(rng)) * std::cos(phi), (R + gauss(rng)) * std::sin(phi), z);
+  }
+  for (int i = 0; i < 60; ++i) {
+    const double phi = M_PI * uni(rng), r = 0.075 + 0.009 * uni(rng);
+    joint.emplace_back(r * std::cos(phi), r * std::sin(phi), floor_z + 0.25 + gauss(rng));
+  }
+  for (int i = 0; i < 300; ++i) {
+    const double phi = M_PI * uni(rng), r = R + 0.02 + 0.1 * (uni(rng) + 1);
+    floor_ring.emplace_back(r * std::cos(phi), r * std::sin(phi), floor_z + gauss(rng));
+  }
+  const EstimatorConfig::AxisFit cfg;
+  float h = -1;
+  std::vector<Eigen::Vector3f> all = joint;
+  all.insert(all.end(), floor_ring.begin(), floor_ring.end());
+  ASSERT_TRUE(findLevelSupport(all, vertical, R, cfg, &h));
+  EXPECT_NEAR(h, floor_z, 0.005);
+  EXPECT_FALSE(findLevelSupport(joint, vertical, R, cfg, &h)) << "found a support at " << h;
+  // The same floor at the joint's top (a joint hanging through a platform) does not hold it up.
+  std::vector<Eigen::Vector3f> hanging = joint;
+  for (const auto& p : floor_ring) hanging.emplace_back(p.x(), p.y(), p.z() + 0.25f);
+  EXPECT_FALSE(findLevelSupport(hanging, vertical, R, cfg, &h)) << "found a support at " << h;
+  // Joints in the air, lying (its top a level band, narrow across it) and tilted 26 deg below
+  // the horizon (a level slice of its side is an ellipse about as wide as the joint): no support.
+  for (const double tilt : {0.0, 26.0}) {
+    SCOPED_TRACE("tilt " + std::to_string(tilt));
+    AxisLine axis;
+    axis.point = Eigen::Vector3d(0, 0, 1.5);
+    axis.direction = Eigen::Vector3d(std::cos(tilt * kDeg), 0, -std::sin(tilt * kDeg));
+    Eigen::Vector3d e1, e2;
+    e1 = axis.direction.cross(Eigen::Vector3d::UnitY()).normalized();
+    e2 = axis.direction.cross(e1);
+    std::vector<Eigen::Vector3f> lying;
+    for (int i = 0; i < 900; ++i) {
+      const double phi = (tilt == 0.0 ? 0.5 : 1.0) * M_PI * uni(rng), s = 0.2 * uni(rng);
+      const Eigen::Vector3d radial = std::cos(phi) * e1 + std::sin(phi) * e2;
+      lying.push_back((axis.point + s * axis.direction + (R + gauss(rng)) *
+                                                              (radial.z() < 0 ? -radial : radial))
+                          .cast<float>());
+    }
+    EXPECT_FALSE(findLevelSupport(lying, axis, R, cfg, &h)) << "found a support at " << h;
+  }
 }
 
 namespace {

@@ -65,6 +65,7 @@ EstimatorConfig loadEstimatorConfig(const ros::NodeHandle& pnh) {
   readNumber(pnh, "profile_fit/search_step", c.profile_fit.search_step, 0.0);
   readNumber(pnh, "profile_fit/truncation", c.profile_fit.truncation, 0.0);
   readNumber(pnh, "profile_fit/wear_margin", c.profile_fit.wear_margin, 0.0);
+  readNumber(pnh, "profile_fit/support_clearance", c.profile_fit.support_clearance, 0.0);
   readNumber(pnh, "profile_fit/iterations", c.profile_fit.iterations, 1.0);
   readNumber(pnh, "profile_fit/huber", c.profile_fit.huber, 0.0);
   readNumber(pnh, "profile_fit/label_margin", c.profile_fit.label_margin, 0.0);

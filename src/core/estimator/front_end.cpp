@@ -68,6 +68,7 @@ void validateConfig(const EstimatorConfig& c) {
   finite_positive(c.profile_fit.search_step, "profile_fit.search_step");
   finite_positive(c.profile_fit.truncation, "profile_fit.truncation");
   non_negative(c.profile_fit.wear_margin, "profile_fit.wear_margin");
+  non_negative(c.profile_fit.support_clearance, "profile_fit.support_clearance");
   at_least(c.profile_fit.iterations, 1, "profile_fit.iterations");
   finite_positive(c.profile_fit.huber, "profile_fit.huber");
   non_negative(c.profile_fit.label_margin, "profile_fit.label_margin");

@@ -168,6 +168,60 @@ std::vector<size_t> removeSupportPlane(const std::vector<Eigen::Vector3f>& point
   return keep;
 }
 
+bool findLevelSupport(const std::vector<Eigen::Vector3f>& points, const AxisLine& axis,
+                      double radius, const EstimatorConfig::AxisFit& config, float* height) {
+  if (points.size() < 30) return false;
+  const float thr = static_cast<float>(config.plane_threshold);
+  // The points off the joint's cylinder (by more than plane_threshold) may be a support.
+  const Eigen::Vector3f ap = axis.point.cast<float>(), ad = axis.direction.normalized().cast<float>();
+  std::vector<uint8_t> off(points.size());
+  std::vector<float> z;
+  for (size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3f q = points[i] - ap;
+    off[i] = std::abs((q - q.dot(ad) * ad).norm() - static_cast<float>(radius)) > thr;
+    if (off[i]) z.push_back(points[i].z());
+  }
+  // The level layer of thickness 2 plane_threshold that holds the most of them (a sliding
+  // window over the sorted heights).
+  std::sort(z.begin(), z.end());
+  size_t best_n = 0, best_lo = 0;
+  for (size_t lo = 0, hi = 0; lo < z.size(); ++lo) {
+    while (hi < z.size() && z[hi] < z[lo] + 2 * thr) ++hi;
+    if (hi - lo > best_n) best_n = hi - lo, best_lo = lo;
+  }
+  if (best_n < std::max<size_t>(20, static_cast<size_t>(config.plane_min_fraction *
+                                                        static_cast<double>(points.size()))))
+    return false;
+  double mean = 0;
+  for (size_t i = best_lo; i < best_lo + best_n; ++i) mean += z[i];
+  const float h = static_cast<float>(mean / static_cast<double>(best_n));
+  // Its spread along its narrower horizontal direction: a floor or catwalk spreads both ways; the
+  // top band of a lying joint, or the end face of a standing one, is narrow. And the joint stands
+  // on it: most of the other points are above it.
+  Eigen::Vector2d c = Eigen::Vector2d::Zero();
+  Eigen::Matrix2d C = Eigen::Matrix2d::Zero();
+  size_t n = 0;
+  long above = 0;
+  for (size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3f& p = points[i];
+    if (off[i] && std::abs(p.z() - h) < thr) {
+      const Eigen::Vector2d q = p.head<2>().cast<double>();
+      c += q;
+      C += q * q.transpose();
+      ++n;
+    } else {
+      above += p.z() > h ? 1 : -1;
+    }
+  }
+  if (n == 0 || above <= 0) return false;
+  c /= static_cast<double>(n);
+  C = C / static_cast<double>(n) - c * c.transpose();
+  const double narrow = Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(C).eigenvalues()[0];
+  if (std::sqrt(std::max(0.0, narrow)) < config.plane_min_extent) return false;
+  *height = h;
+  return true;
+}
+
 AxisFitResult fitCylinderAxis(const std::vector<Eigen::Vector3f>& points, double radius,
                               const EstimatorConfig::AxisFit& config) {
   AxisFitResult result;

@@ -41,6 +41,12 @@ struct Candidate {
   double axial_contrast = 0.0;
   /// The model and direction came from the end's track (no hypothesis decision this cycle).
   bool tracked = false;
+  /// The level support found at the decision (or the track's): the points below
+  /// support_z + profile_fit.support_clearance are left out of the pose refinement.
+  bool has_support = false;
+  float support_z = 0.0f;  ///< [m] world height of the support
+  /// The points the pose refinement used (of pts): the fit's inliers are counted among them.
+  size_t fit_points = 0;
 };
 
 /// The last valid fit of the points of one detected label (EstimatorConfig::Tracking).
@@ -52,6 +58,8 @@ struct Track {
   int64_t stamp_ns = 0;
   int cycles = 0;  ///< cycles since the last full decision (1 = this track's decision cycle)
   double direction_margin = 0.0;
+  bool has_support = false;  ///< the support of the last decision (Candidate)
+  float support_z = 0.0f;
 };
 
 }  // namespace
@@ -217,6 +225,7 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
       cd.cams.push_back(points[i].camera);
       cd.eyes.push_back(cams[points[i].camera].T_world_depth.translation().cast<float>());
     }
+    cd.fit_points = cd.pts.size();
     const auto& fsc = config_.free_space;
     const auto& trc = config_.tracking;
     const double T2 = config_.profile_fit.truncation * config_.profile_fit.truncation;
@@ -289,12 +298,46 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
     // by the depth noise at the joint's edges (closest-point matching pulls the end face outward).
     auto refineWinner = [&](int win) {
       const ProfileModel& model = impl_->models[win];
+      // Near a level support (floor, catwalk) the floor and the joint's foot cannot be told
+      // apart (their points join within the depth noise, and the floor's pull tilts the axis):
+      // the refinement leaves out the points less than support_clearance above it. The
+      // decisions and the fit's cost judge every point.
+      const float clearance = static_cast<float>(config_.profile_fit.support_clearance);
+      auto clear = [&](const Eigen::Vector3f& p) {
+        return !cd.has_support || clearance <= 0 || p.z() >= cd.support_z + clearance;
+      };
+      std::vector<size_t> fit_idx;
+      for (size_t i = 0; i < cd.pts.size(); ++i)
+        if (clear(cd.pts[i])) fit_idx.push_back(i);
+      const bool subset =
+          fit_idx.size() < cd.pts.size() && fit_idx.size() >= config_.axis_fit.min_points;
+      std::vector<Eigen::Vector3f> fit_pts, fit_eyes, fc_pts, fc_eyes;
+      std::vector<float> fit_sig, fc_sig;
+      if (subset) {
+        for (size_t i : fit_idx) {
+          fit_pts.push_back(cd.pts[i]);
+          fit_eyes.push_back(cd.eyes[i]);
+          fit_sig.push_back(sig[i]);
+        }
+        for (size_t i = 0; i < coarse_pts.size(); ++i)
+          if (clear(coarse_pts[i])) {
+            fc_pts.push_back(coarse_pts[i]);
+            fc_eyes.push_back(coarse_eyes[i]);
+            fc_sig.push_back(coarse_sig[i]);
+          }
+      }
+      const auto& r_pts = subset ? fit_pts : cd.pts;
+      const auto& r_eyes = subset ? fit_eyes : cd.eyes;
+      const auto& r_sig = subset ? fit_sig : sig;
+      const auto& rc_pts = subset ? fc_pts : coarse_pts;
+      const auto& rc_eyes = subset ? fc_eyes : coarse_eyes;
+      const auto& rc_sig = subset ? fc_sig : coarse_sig;
       const double z_trust = model.trustedMinZ(config_.profile_fit.wear_margin);
       std::vector<Eigen::Vector3f> trusted, trusted_eyes;
-      for (size_t i = 0; i < coarse_pts.size(); ++i)
-        if ((coarse_pts[i].cast<double>() - cd.fit.origin).dot(cd.fit.z) > z_trust + 0.03) {
-          trusted.push_back(coarse_pts[i]);
-          trusted_eyes.push_back(coarse_eyes[i]);
+      for (size_t i = 0; i < rc_pts.size(); ++i)
+        if ((rc_pts[i].cast<double>() - cd.fit.origin).dot(cd.fit.z) > z_trust + 0.03) {
+          trusted.push_back(rc_pts[i]);
+          trusted_eyes.push_back(rc_eyes[i]);
         }
       ProfileFitResult f0 = cd.fit;
       axialScan(win, trusted, &trusted_eyes, static_cast<double>(trusted.size()) * coarse_stride,
@@ -305,11 +348,11 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
       // converges on the coarse subsample, then is polished on every point.
       auto refine = [&](bool lock) {
         const ProfileFitResult c =
-            refineProfile(coarse_pts, coarse_sig, f0.origin, f0.z, model, config_.profile_fit,
-                          config_.profile_fit.iterations, lock, &coarse_eyes);
+            refineProfile(rc_pts, rc_sig, f0.origin, f0.z, model, config_.profile_fit,
+                          config_.profile_fit.iterations, lock, &rc_eyes);
         if (!c.ok || coarse_stride == 1) return c;
-        return refineProfile(cd.pts, sig, c.origin, c.z, model, config_.profile_fit,
-                             config_.profile_fit.polish_iterations, lock, &cd.eyes);
+        return refineProfile(r_pts, r_sig, c.origin, c.z, model, config_.profile_fit,
+                             config_.profile_fit.polish_iterations, lock, &r_eyes);
       };
       ProfileFitResult f, fl;
       if (config_.threads >= 2) {
@@ -335,7 +378,19 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
                      poseScore(win, trusted, &trusted_eyes, n_sc, f0.origin + step * f0.z, f0.z)) -
             c0;
       }
-      if (f.ok) cd.fit = f;
+      if (f.ok) {
+        cd.fit = f;
+        cd.fit_points = r_pts.size();
+        if (subset) {
+          // The inliers as a mask over every point; the cost over every point (the instances
+          // and the labels compete by it).
+          cd.fit.inlier_mask.assign(cd.pts.size(), 0);
+          for (size_t j = 0; j < fit_idx.size(); ++j)
+            cd.fit.inlier_mask[fit_idx[j]] = f.inlier_mask[j];
+          cd.fit.cost = profileCost(cd.pts, model, f.origin, f.z, config_.profile_fit.truncation,
+                                    &cd.eyes);
+        }
+      }
       return f.ok;
     };
 
@@ -363,6 +418,10 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
     Eigen::Vector3d move = tr.velocity * gap_s;
     if (move.norm() > trc.max_prediction) move *= trc.max_prediction / move.norm();
     const Eigen::Vector3d pred = tr.origin + move;
+    if (trackable) {
+      cd.has_support = tr.has_support;
+      cd.support_z = tr.support_z;
+    }
     if (cd.tracked) {
       t0 = Clock::now();
       cd.fit = ProfileFitResult();
@@ -403,6 +462,9 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
           return;
         }
         axis = fitCylinderAxis(axis_pts, config_.dims.tool_joint_od / 2, config_.axis_fit);
+        cd.has_support = axis.ok && config_.profile_fit.support_clearance > 0 &&
+                         findLevelSupport(cd.pts, axis.axis, config_.dims.tool_joint_od / 2,
+                                          config_.axis_fit, &cd.support_z);
       }
       seg_ms[l] += msSince(t0);
       if (!axis.ok) {
@@ -445,7 +507,15 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
       if (cost[other] < (1.0 - config_.profile_fit.label_margin) * cost[l]) win = other;
       cd.fit = fits[win];
       cd.direction_margin = flip_cost[win] - cost[win];
-      if (cd.fit.ok && fsc.enabled && fsc.axial_scan) refineWinner(win);
+      const bool refined = cd.fit.ok && fsc.enabled && fsc.axial_scan && refineWinner(win);
+      if (cd.fit.ok && !refined) {
+        // The hypothesis's fit, on the coarse subsample: its inliers as a mask over every point.
+        std::vector<uint8_t> mask(cd.pts.size(), 0);
+        for (size_t i = 0; i < cd.fit.inlier_mask.size(); ++i)
+          mask[i * coarse_stride] = cd.fit.inlier_mask[i];
+        cd.fit.inlier_mask = std::move(mask);
+        cd.fit_points = coarse_pts.size();
+      }
       reg_ms[l] += msSince(t0);
     }
     if (!cd.fit.ok) {
@@ -459,12 +529,12 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
       cd.reason = s.str();
       return;
     }
-    const double inlier_fraction = static_cast<double>(cd.fit.inliers) / cd.pts.size();
+    const double inlier_fraction = static_cast<double>(cd.fit.inliers) / cd.fit_points;
     if (cd.fit.rms > config_.profile_fit.max_rms ||
         inlier_fraction < config_.profile_fit.min_inlier_fraction) {
       std::ostringstream s;
       s << "model fit rejected: RMS residual " << cd.fit.rms * 1000 << " mm, inliers "
-        << cd.fit.inliers << "/" << cd.pts.size();
+        << cd.fit.inliers << "/" << cd.fit_points;
       cd.reason = s.str();
       return;
     }
@@ -654,6 +724,8 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
     tr.origin = cd.fit.origin;
     tr.z = cd.fit.z;
     tr.stamp_ns = cycle_stamp_ns;
+    tr.has_support = cd.has_support;
+    tr.support_z = cd.support_z;
   }
 
   // Assign candidates to ends by the model that fits; the detected label wins a tie.

@@ -125,6 +125,12 @@ struct EstimatorConfig {
     /// [m] only the part of the tong within (tong length - wear_margin) of the shoulder is trusted
     /// in the refinement (worn joints are up to 20 mm shorter than nominal).
     double wear_margin = 0.03;
+    /// [m] the points less than this above a level support under the joint (a floor or
+    /// catwalk, found among the end's points at the decision: findLevelSupport, as configured in
+    /// axis_fit.plane_*), or below it, are left out of the pose refinement: there the floor and
+    /// the joint's foot cannot be told apart, and the floor's points tilt the axis. The
+    /// decisions and the fit's cost still judge every point. 0: off.
+    double support_clearance = 0.01;
     int iterations = 12;  ///< IRLS Gauss-Newton iterations of the final refinement
     int hypothesis_iterations = 8;  ///< of each hypothesis before the decision
     double huber = 2.0;   ///< Huber threshold in units of the point's noise sigma
@@ -140,7 +146,7 @@ struct EstimatorConfig {
     /// Search the axial position with a 0.3 m longer tong (no pull from a worn joint's taper).
     bool long_tong_search = false;
     double max_rms = 0.02;             ///< [m] a fit with a larger inlier RMS residual is invalid
-    double min_inlier_fraction = 0.4;  ///< a fit with fewer inliers (of the points) is invalid
+    double min_inlier_fraction = 0.6;  ///< a fit with fewer inliers (of the points) is invalid
     /// [m], [rad] a fit whose reported std along the axis / of the tilt is larger is invalid (the
     /// points do not determine the pose: nothing is published rather than a guess).
     double max_axial_std = 0.05;

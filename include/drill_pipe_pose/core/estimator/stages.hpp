@@ -145,6 +145,16 @@ std::vector<size_t> removeSupportPlane(const std::vector<Eigen::Vector3f>& point
 AxisFitResult fitCylinderAxis(const std::vector<Eigen::Vector3f>& points, double radius,
                               const EstimatorConfig::AxisFit& config);
 
+/// A level support (floor, catwalk: world +z up, REP 103) under an end whose cylinder-axis fit
+/// is `axis` (tool-joint radius `radius` [m]): among the points more than plane_threshold off
+/// that cylinder, the horizontal layer 2 plane_threshold thick with the most points, when it
+/// holds at least plane_min_fraction of all the points, spreads by a standard deviation of at
+/// least plane_min_extent [m] along its narrower horizontal direction, and has most of the other
+/// points above it. `height` receives the layer's mean height [m, world z]. False when there is
+/// none.
+bool findLevelSupport(const std::vector<Eigen::Vector3f>& points, const AxisLine& axis,
+                      double radius, const EstimatorConfig::AxisFit& config, float* height);
+
 /// A tool-joint model as an open 2D profile (z, r) in its pipe-end frame, with the tube extended
 /// beyond the model's truncation, an exact distance and a grid of distances for coarse searches.
 class ProfileModel {
