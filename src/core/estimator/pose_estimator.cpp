@@ -346,28 +346,32 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
       // truncated cost wins (the free one follows the end face's points, but can slide along a
       // joint whose shoulder and nose the cameras barely see, leaving them as outliers). Each
       // converges on the coarse subsample, then is polished on every point.
-      auto refine = [&](bool lock) {
-        const ProfileFitResult c =
-            refineProfile(rc_pts, rc_sig, f0.origin, f0.z, model, config_.profile_fit,
-                          config_.profile_fit.iterations, lock, &rc_eyes);
-        if (!c.ok || coarse_stride == 1) return c;
-        return refineProfile(r_pts, r_sig, c.origin, c.z, model, config_.profile_fit,
-                             config_.profile_fit.polish_iterations, lock, &r_eyes);
+      auto converge = [&](bool lock) {
+        return refineProfile(rc_pts, rc_sig, f0.origin, f0.z, model, config_.profile_fit,
+                             config_.profile_fit.iterations, lock, &rc_eyes);
       };
       ProfileFitResult f, fl;
       if (config_.threads >= 2) {
-        auto locked = std::async(std::launch::async, refine, true);
-        f = refine(false);
+        auto locked = std::async(std::launch::async, converge, true);
+        f = converge(false);
         fl = locked.get();
       } else {
-        f = refine(false);
-        fl = refine(true);
+        f = converge(false);
+        fl = converge(true);
       }
       // When no point carries information along the axis (all of them on the tong's cylinder:
       // a reported axial std of metres), the position along it is the scan's, and the fit's
-      // covariance does not describe it. Weak information is left to the gate below.
-      cd.axial_from_scan = f.ok && axialStd(f, config_.covariance) > 1.0;
-      if (fl.ok && (!f.ok || fl.cost < f.cost || cd.axial_from_scan)) f = fl;
+      // covariance does not describe it. Weak information is left to the gate below. (The
+      // coarse fit's std, scaled to every point.)
+      const double coarse_to_all =
+          std::sqrt(static_cast<double>(rc_pts.size()) / std::max<size_t>(1, r_pts.size()));
+      cd.axial_from_scan = f.ok && axialStd(f, config_.covariance) * coarse_to_all > 1.0;
+      const bool lock = fl.ok && (!f.ok || fl.cost < f.cost || cd.axial_from_scan);
+      if (lock) f = fl;
+      // Only the better one is polished on every point.
+      if (f.ok && coarse_stride > 1)
+        f = refineProfile(r_pts, r_sig, f.origin, f.z, model, config_.profile_fit,
+                          config_.profile_fit.polish_iterations, lock, &r_eyes);
       if (cd.axial_from_scan) {
         // How sharply the scan's score pins the position: the smaller rise at +-1 cm.
         const double n_sc = static_cast<double>(trusted.size()) * coarse_stride;
