@@ -790,6 +790,41 @@ TEST(PoseEstimator, CleanVerticalBoxAndPin) {
   checkScene(scene, ring({5, 5, 1.0}, 5.5, 4.5), {}, 0.004, 0.3 * kDeg);
 }
 
+TEST(PoseEstimator, CovarianceAddsTheRigCalibrationUncertainty) {
+  Scene scene;
+  scene.joints.push_back(makeJoint(EndLabel::kBoxEnd, poseAt({4.694, 5.3, 1.23}, {0, 0, 1})));
+  // Six cameras 5.5 m around (5, 5) at 4.5 m: 6.0-6.8 m from the end.
+  const auto inputs = renderAll(scene, ring({5, 5, 1.0}, 5.5, 4.5), {});
+  EstimatorConfig exact = testConfig();
+  exact.covariance.extrinsic_translation_std = 0.0;
+  exact.covariance.extrinsic_rotation_std = 0.0;
+  const EstimatorConfig field = testConfig();  // the defaults: 5 mm, 0.2 deg
+  const double t = field.covariance.extrinsic_translation_std;
+  const double r = field.covariance.extrinsic_rotation_std;
+  ASSERT_GT(t, 0.0);
+  ASSERT_GT(r, 0.0);
+  PoseEstimator a(exact), b(field);
+  const EndEstimate ea = a.process(inputs).end(EndLabel::kBoxEnd);
+  const EndEstimate eb = b.process(inputs).end(EndLabel::kBoxEnd);
+  ASSERT_TRUE(ea.valid) << describe(ea);
+  ASSERT_TRUE(eb.valid) << describe(eb);
+  // The same pose; only the covariance grows.
+  EXPECT_TRUE(ea.T_world_end.isApprox(eb.T_world_end, 1e-12));
+  const double n = static_cast<double>(eb.cameras.size());
+  ASSERT_GT(n, 0.0);
+  const Eigen::Matrix<double, 6, 6> d = eb.covariance - ea.covariance;
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_GE(d(k, k), (t * t + std::pow(r * 6.0, 2)) / n) << "position " << k;
+    EXPECT_LE(d(k, k), (t * t + std::pow(r * 6.8, 2)) / n) << "position " << k;
+  }
+  // Tilt about x and y, nothing about the (vertical) axis.
+  for (int k = 3; k < 5; ++k) {
+    EXPECT_GE(d(k, k), r * r / n) << "rotation " << k;
+    EXPECT_LE(d(k, k), (r * r + t * t / 0.01) / n) << "rotation " << k;
+  }
+  EXPECT_NEAR(d(5, 5), 0.0, 1e-12);
+}
+
 TEST(PoseEstimator, NoisyRandomPoses) {
   for (uint32_t seed = 1; seed <= 6; ++seed) {
     std::mt19937 rng(seed);

@@ -116,6 +116,9 @@ EstimatorConfig loadEstimatorConfig(const ros::NodeHandle& pnh) {
   readNumber(pnh, "covariance/min_axial_std", c.covariance.min_axial_std, 0.0);
   readNumber(pnh, "covariance/min_tilt_std", c.covariance.min_tilt_std, 0.0);
   readNumber(pnh, "covariance/roll_variance", c.covariance.roll_variance, 0.0);
+  readNumber(pnh, "covariance/extrinsic_translation_std", c.covariance.extrinsic_translation_std,
+             0.0);
+  readNumber(pnh, "covariance/extrinsic_rotation_std", c.covariance.extrinsic_rotation_std, 0.0);
 
   readNumber(pnh, "baseline/layers", c.baseline.layers, 1.0);
   readNumber(pnh, "baseline/square_size", c.baseline.square_size, 0.0);

@@ -117,6 +117,8 @@ void validateConfig(const EstimatorConfig& c) {
   non_negative(c.covariance.min_axial_std, "covariance.min_axial_std");
   non_negative(c.covariance.min_tilt_std, "covariance.min_tilt_std");
   finite_positive(c.covariance.roll_variance, "covariance.roll_variance");
+  non_negative(c.covariance.extrinsic_translation_std, "covariance.extrinsic_translation_std");
+  non_negative(c.covariance.extrinsic_rotation_std, "covariance.extrinsic_rotation_std");
   at_least(c.baseline.layers, 1, "baseline.layers");
   finite_positive(c.baseline.square_size, "baseline.square_size");
   if (!(c.baseline.band_max_z > c.baseline.band_min_z))

@@ -137,6 +137,26 @@ static Eigen::Matrix<double, 6, 6> worldCovariance(const ProfileFitResult& fit,
   return 0.5 * (C + C.transpose());
 }
 
+/// The rig calibration's share of an end's covariance (EstimatorConfig::Covariance::extrinsic_*)
+/// for an end on axis `z` fitted to the points of `n` cameras at a mean `range` [m], its inliers
+/// spanning `length` [m] along the axis: each camera's extrinsic error moves its points by
+/// t^2 + (rotation range)^2 in each direction and tilts the axis by rotation^2 + (t / length)^2
+/// (two cameras' points offset against each other across the joint's length); n cameras average
+/// them. A bias for a fixed rig: it is added after the temporal filter, which cannot reduce it.
+static Eigen::Matrix<double, 6, 6> calibrationCovariance(const Eigen::Vector3d& z, size_t n,
+                                                        double range, double length,
+                                                        const EstimatorConfig::Covariance& c) {
+  const double t2 = c.extrinsic_translation_std * c.extrinsic_translation_std;
+  const double r2 = c.extrinsic_rotation_std * c.extrinsic_rotation_std;
+  const double pos = (t2 + r2 * range * range) / static_cast<double>(n);
+  const double tilt = (r2 + t2 / std::pow(std::max(length, 0.1), 2)) / static_cast<double>(n);
+  Eigen::Matrix<double, 6, 6> C = Eigen::Matrix<double, 6, 6>::Zero();
+  C.topLeftCorner<3, 3>() = pos * Eigen::Matrix3d::Identity();
+  const Eigen::Vector3d u = z.normalized();
+  C.bottomRightCorner<3, 3>() = tilt * (Eigen::Matrix3d::Identity() - u * u.transpose());
+  return C;
+}
+
 /// Reported std [m] of a fit's position along its axis.
 static double axialStd(const ProfileFitResult& fit, const EstimatorConfig::Covariance& c) {
   const Eigen::Matrix<double, 6, 6> C = worldCovariance(fit, c);
@@ -774,17 +794,29 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
     e.residual = cd.fit.rms;
     e.points = cd.fit.inliers;
     std::set<uint16_t> used;
+    double z_lo = std::numeric_limits<double>::infinity(), z_hi = -z_lo;
     for (size_t i = 0; i < cd.pts.size(); ++i)
       if (cd.fit.inlier_mask[i]) {
         used.insert(cd.cams[i]);
         result.segmented[slot].push_back(cd.pts[i]);
+        const double zi = (cd.pts[i].cast<double>() - cd.fit.origin).dot(cd.fit.z);
+        z_lo = std::min(z_lo, zi);
+        z_hi = std::max(z_hi, zi);
       }
-    for (uint16_t c : used) e.cameras.push_back(cams[c].name);
+    double range_sum = 0;
+    for (uint16_t c : used) {
+      e.cameras.push_back(cams[c].name);
+      range_sum += (cams[c].T_world_depth.translation() - cd.fit.origin).norm();
+    }
     if (config_.temporal.enabled) {
       Eigen::Vector3d o = e.T_world_end.translation(), z = e.T_world_end.linear().col(2);
       impl_->filters[slot].update(cycle_stamp_ns, &o, &z, &e.covariance);
       e.T_world_end = canonicalPose(o, z);
     }
+    if (!used.empty())
+      e.covariance += calibrationCovariance(e.T_world_end.linear().col(2), used.size(),
+                                            range_sum / used.size(), z_hi - z_lo,
+                                            config_.covariance);
   }
   result.timing.total_ms = msSince(t_start);
   return result;

@@ -199,6 +199,13 @@ struct EstimatorConfig {
     double min_axial_std = 0.004;    ///< [m] added along the axis
     double min_tilt_std = 0.006;     ///< [rad] added about the end's x and y
     double roll_variance = 1e3;      ///< [rad^2] about the axis (unobservable)
+    /// The rig calibration's uncertainty per camera (1 sigma of its extrinsics' translation [m]
+    /// and rotation [rad] error): a bias that no filter removes, added to the published
+    /// covariance (calibrationCovariance in pose_estimator.cpp). The defaults are the field
+    /// calibration of DESIGN.md's kinect_v2_field profile (5 mm, 0.2 deg); set them from your
+    /// calibration's residuals (0: extrinsics exact).
+    double extrinsic_translation_std = 0.005;
+    double extrinsic_rotation_std = 0.0035;
   } covariance;
 
   /// Temporal filter of each end's pose across cycles (temporal_filter.hpp): a constant-velocity
