@@ -979,6 +979,55 @@ TEST(PoseEstimator, SwappedLabelsAreCorrectedByGeometry) {
       << r.end(EndLabel::kBoxEnd).reason;
 }
 
+TEST(PoseEstimator, ALabelFlipAgainstItsTrackWaitsForDecisionsInARow) {
+  // A pin end tracked for three cycles; then cycles whose points are a box end's, still
+  // detected as pin_end (one dark cycle's misfit, or the joint really is a box end).
+  const Eigen::Isometry3d T = poseAt({5, 5, 1.3}, {0, 0, 1});
+  Scene pin, box;
+  pin.joints.push_back(makeJoint(EndLabel::kPinEnd, T));
+  box.joints.push_back(makeJoint(EndLabel::kBoxEnd, T));
+  const auto cams = ring({5, 5, 1.0}, 5.5, 4.5);
+  RenderOptions swapped;
+  swapped.swap_labels = true;
+  const auto pin_inputs = renderAll(pin, cams, {});
+  const auto box_inputs = renderAll(box, cams, swapped);
+  EstimatorConfig cfg = testConfig();
+  cfg.tracking.redecide_every = 1;  // every cycle decides (on the track's axis)
+  ASSERT_EQ(cfg.instances.min_decisions, 3);
+  PoseEstimator est(cfg);
+  int k = 0;
+  auto cycle = [&](const std::vector<CameraInput>& inputs) {
+    auto in = inputs;
+    for (auto& i : in) i.frame.stamp_ns = 1000000000LL + (k++) * 33000000LL;
+    return est.process(in);
+  };
+  for (int i = 0; i < 3; ++i) {
+    const CycleResult r = cycle(pin_inputs);
+    ASSERT_TRUE(r.end(EndLabel::kPinEnd).valid) << describe(r.end(EndLabel::kPinEnd));
+  }
+  // One flipped decision: nothing is published; a pin decision after it resets the count.
+  CycleResult r = cycle(box_inputs);
+  EXPECT_FALSE(r.end(EndLabel::kPinEnd).valid);
+  EXPECT_FALSE(r.end(EndLabel::kBoxEnd).valid) << describe(r.end(EndLabel::kBoxEnd));
+  EXPECT_NE(r.end(EndLabel::kPinEnd).reason.find("against their track (1 of 3"),
+            std::string::npos)
+      << r.end(EndLabel::kPinEnd).reason;
+  r = cycle(pin_inputs);
+  EXPECT_TRUE(r.end(EndLabel::kPinEnd).valid) << describe(r.end(EndLabel::kPinEnd));
+  // Three in a row: the third corrects the label.
+  for (int i = 1; i <= 2; ++i) {
+    r = cycle(box_inputs);
+    EXPECT_FALSE(r.end(EndLabel::kBoxEnd).valid) << "flip " << i;
+    EXPECT_NE(r.end(EndLabel::kPinEnd).reason.find("(" + std::to_string(i) + " of 3"),
+              std::string::npos)
+        << r.end(EndLabel::kPinEnd).reason;
+  }
+  r = cycle(box_inputs);
+  ASSERT_TRUE(r.end(EndLabel::kBoxEnd).valid) << describe(r.end(EndLabel::kBoxEnd));
+  EXPECT_TRUE(r.end(EndLabel::kBoxEnd).label_corrected);
+  EXPECT_LT(poseError(T, r.end(EndLabel::kBoxEnd).T_world_end).position_norm, 0.01);
+}
+
 TEST(PoseEstimator, EmptyInputAndNoBoxesGiveReasons) {
   PoseEstimator est(testConfig());
   CycleResult r = est.process({});

@@ -74,6 +74,9 @@ struct PoseEstimator::Impl {
   std::array<EndPoseFilter, kNumEnds> filters;
   std::array<Track, kNumEnds> tracks;  ///< per detected label
   std::array<std::vector<InstanceMemory>, kNumEnds> memory;  ///< per detected label
+  /// Per detected label: consecutive decisions whose fit took the other model against the
+  /// label's own track (a label correction waits for instances.min_decisions of them).
+  std::array<int, kNumEnds> flips{{0, 0}};
 };
 
 PoseEstimator::PoseEstimator(const EstimatorConfig& config)
@@ -111,6 +114,8 @@ void PoseEstimator::reset() {
   if (impl_->baseline) impl_->baseline->reset();
   for (auto& f : impl_->filters) f.reset();
   for (auto& t : impl_->tracks) t = Track();
+  for (auto& m : impl_->memory) m.clear();
+  impl_->flips = {{0, 0}};
 }
 
 /// 6x6 world covariance (x y z, rotation about world x y z) from a 5-DoF profile fit.
@@ -724,10 +729,38 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
   }
   result.timing.segmentation_ms = seg_ms[0] + seg_ms[1];
   result.timing.registration_ms = reg_ms[0] + reg_ms[1];
+  // A decision whose fit takes the other model while the label's last valid fit (within
+  // tracking.max_gap) took its own - one cycle of a dark joint whose cone drops out, say - is
+  // not published until instances.min_decisions decisions in a row say so; its track, if any,
+  // goes on meanwhile. A label with no recent fit of its own model is corrected at once (a
+  // detector that swaps the labels in every camera).
+  std::array<bool, kNumEnds> flip_held{{false, false}};
+  for (int l = 0; l < kNumEnds; ++l) {
+    Candidate& cd = cand[l];
+    if (!cd.ok || cd.tracked) continue;
+    if (static_cast<int>(cd.fit.label) == l) {
+      impl_->flips[l] = 0;
+      continue;
+    }
+    const Track& tr = impl_->tracks[l];
+    const double gap_s = static_cast<double>(cycle_stamp_ns - tr.stamp_ns) * 1e-9;
+    if (!(tr.stamp_ns > 0 && static_cast<int>(tr.model) == l && gap_s > 0 &&
+          gap_s <= config_.tracking.max_gap))
+      continue;
+    if (++impl_->flips[l] >= config_.instances.min_decisions) continue;
+    std::ostringstream s;
+    s << "the " << labelName(cd.detected) << " detections fit the " << labelName(cd.fit.label)
+      << " model in this decision, against their track (" << impl_->flips[l] << " of "
+      << config_.instances.min_decisions << " decisions in a row needed to correct the label)";
+    cd.ok = false;
+    cd.reason = s.str();
+    flip_held[l] = true;
+  }
   // Tracks follow each label's valid fits; a label without one ends its track.
   for (int l = 0; l < kNumEnds; ++l) {
     Track& tr = impl_->tracks[l];
     const Candidate& cd = cand[l];
+    if (flip_held[l]) continue;
     if (!cd.ok) {
       tr.valid = false;
       continue;
