@@ -1009,7 +1009,7 @@ TEST(PoseEstimator, ALabelFlipAgainstItsTrackWaitsForDecisionsInARow) {
   CycleResult r = cycle(box_inputs);
   EXPECT_FALSE(r.end(EndLabel::kPinEnd).valid);
   EXPECT_FALSE(r.end(EndLabel::kBoxEnd).valid) << describe(r.end(EndLabel::kBoxEnd));
-  EXPECT_NE(r.end(EndLabel::kPinEnd).reason.find("against their track (1 of 3"),
+  EXPECT_NE(r.end(EndLabel::kPinEnd).reason.find("against their last fit (1 of 3"),
             std::string::npos)
       << r.end(EndLabel::kPinEnd).reason;
   r = cycle(pin_inputs);

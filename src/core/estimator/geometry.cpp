@@ -173,7 +173,8 @@ bool findLevelSupport(const std::vector<Eigen::Vector3f>& points, const AxisLine
   if (points.size() < 30) return false;
   const float thr = static_cast<float>(config.plane_threshold);
   // The points off the joint's cylinder (by more than plane_threshold) may be a support.
-  const Eigen::Vector3f ap = axis.point.cast<float>(), ad = axis.direction.normalized().cast<float>();
+  const Eigen::Vector3f ap = axis.point.cast<float>();
+  const Eigen::Vector3f ad = axis.direction.normalized().cast<float>();
   std::vector<uint8_t> off(points.size());
   std::vector<float> z;
   for (size_t i = 0; i < points.size(); ++i) {

@@ -750,7 +750,7 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
     if (++impl_->flips[l] >= config_.instances.min_decisions) continue;
     std::ostringstream s;
     s << "the " << labelName(cd.detected) << " detections fit the " << labelName(cd.fit.label)
-      << " model in this decision, against their track (" << impl_->flips[l] << " of "
+      << " model in this decision, against their last fit (" << impl_->flips[l] << " of "
       << config_.instances.min_decisions << " decisions in a row needed to correct the label)";
     cd.ok = false;
     cd.reason = s.str();

@@ -146,7 +146,9 @@ struct EstimatorConfig {
     /// Search the axial position with a 0.3 m longer tong (no pull from a worn joint's taper).
     bool long_tong_search = false;
     double max_rms = 0.02;             ///< [m] a fit with a larger inlier RMS residual is invalid
-    double min_inlier_fraction = 0.6;  ///< a fit with fewer inliers (of the points) is invalid
+    /// A fit with fewer inliers (of the points the refinement used: those above a support) is
+    /// invalid. Painted joints' fits explain 60-90 % of them, dark steel's 40-60 %.
+    double min_inlier_fraction = 0.6;
     /// [m], [rad] a fit whose reported std along the axis / of the tilt is larger is invalid (the
     /// points do not determine the pose: nothing is published rather than a guess).
     double max_axial_std = 0.05;
