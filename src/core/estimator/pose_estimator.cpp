@@ -75,7 +75,7 @@ struct PoseEstimator::Impl {
   std::array<Track, kNumEnds> tracks;  ///< per detected label
   std::array<std::vector<InstanceMemory>, kNumEnds> memory;  ///< per detected label
   /// Per detected label: consecutive decisions whose fit took the other model against the
-  /// label's own track (a label correction waits for instances.min_decisions of them).
+  /// label's last fit of its own (a label correction waits for instances.min_decisions of them).
   std::array<int, kNumEnds> flips{{0, 0}};
 };
 
@@ -325,8 +325,9 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
       const ProfileModel& model = impl_->models[win];
       // Near a level support (floor, catwalk) the floor and the joint's foot cannot be told
       // apart (their points join within the depth noise, and the floor's pull tilts the axis):
-      // the refinement leaves out the points less than support_clearance above it. The
-      // decisions and the fit's cost judge every point.
+      // the refinement leaves out the points less than support_clearance above it (all are used
+      // when fewer than axis_fit.min_points would be left). The decisions and the fit's cost
+      // judge every point.
       const float clearance = static_cast<float>(config_.profile_fit.support_clearance);
       auto clear = [&](const Eigen::Vector3f& p) {
         return !cd.has_support || clearance <= 0 || p.z() >= cd.support_z + clearance;
@@ -369,8 +370,8 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
                 &f0, fsc.decision_step, fsc.axial_step, fsc.axial_step / 2, true, true);
       // Refined with the position along the axis free and locked: the one with the lower
       // truncated cost wins (the free one follows the end face's points, but can slide along a
-      // joint whose shoulder and nose the cameras barely see, leaving them as outliers). Each
-      // converges on the coarse subsample, then is polished on every point.
+      // joint whose shoulder and nose the cameras barely see, leaving them as outliers). Both
+      // converge on the coarse subsample; the winner is then polished on every point.
       auto converge = [&](bool lock) {
         return refineProfile(rc_pts, rc_sig, f0.origin, f0.z, model, config_.profile_fit,
                              config_.profile_fit.iterations, lock, &rc_eyes);
