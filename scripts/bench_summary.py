@@ -21,7 +21,8 @@ def main(path):
     print("(sd x/y/z: spread of the estimated positions; for moving scenes it includes the motion)")
     hdr = (f"{'scenario':24s} {'method':16s} {'end':8s} {'valid':>9s} {'mean mm':>8s} "
            f"{'sd x/y/z mm':>16s} {'axis deg':>8s} {'<=1cm1deg':>9s} {'<=2cm2deg':>9s} "
-           f"{'in 3sig':>7s} {'med ms':>7s} {'p95 ms':>7s} {'p99 ms':>7s} {'RSS MB':>7s}")
+           f"{'in 3sig':>7s} {'ax 3sig':>7s} {'med ms':>7s} {'p95 ms':>7s} {'p99 ms':>7s} "
+           f"{'RSS MB':>7s}")
     print(hdr)
     for r in rows:
         sd = f"{float(r['std_x_mm']):.1f}/{float(r['std_y_mm']):.1f}/{float(r['std_z_mm']):.1f}"
@@ -29,6 +30,7 @@ def main(path):
               f"{r['estimates']:>4s}/{r['expected']:<4s} {float(r['mean_err_mm']):8.1f} {sd:>16s} "
               f"{float(r['mean_axis_deg']):8.2f} {100 * float(r['within_1cm_1deg']):8.1f}% "
               f"{100 * float(r['within_2cm_2deg']):8.1f}% {100 * float(r['in_3sigma']):6.1f}% "
+              f"{100 * float(r.get('axis_in_3sigma', 'nan')):6.1f}% "
               f"{float(r['median_ms']):7.2f} {float(r['p95_ms']):7.1f} {float(r['p99_ms']):7.1f} "
               f"{float(r['rss_mb']):7.1f}")
     # Speed ratio: same scenario, same run.

@@ -69,7 +69,7 @@ std::array<EndEvaluation, kNumEnds> evaluate(const std::array<GroundTruthTrack, 
           options.expected_rate_hz * static_cast<double>(gt.lastStamp() - gt.firstStamp()) * 1e-9));
     std::vector<PoseError> errors;
     std::vector<Eigen::Vector3d> positions;
-    size_t with_cov = 0, inside = 0;
+    size_t with_cov = 0, inside = 0, with_rot_cov = 0, axis_inside = 0;
     double lag_sum = 0;
     Eigen::Vector3d true_sum = Eigen::Vector3d::Zero();
     for (const auto& est : estimates) {
@@ -97,9 +97,18 @@ std::array<EndEvaluation, kNumEnds> evaluate(const std::array<GroundTruthTrack, 
         const double d2 = err.position.dot(P.ldlt().solve(err.position));
         if (d2 <= 9.0) ++inside;
       }
+      const Eigen::Matrix3d Q = est.covariance.bottomRightCorner<3, 3>();
+      if (Q.trace() > 0) {
+        ++with_rot_cov;
+        const Eigen::Vector3d r = T_true.linear() * err.rotation_vector;
+        const double d2 = r.dot(Q.ldlt().solve(r));
+        if (d2 <= 9.0) ++axis_inside;
+      }
     }
     ev.stats = computeStats(errors, positions, std::max(expected, errors.size()));
     ev.within_3sigma = with_cov ? static_cast<double>(inside) / with_cov : std::nan("");
+    ev.axis_within_3sigma =
+        with_rot_cov ? static_cast<double>(axis_inside) / with_rot_cov : std::nan("");
     ev.mean_lag = ev.moving_estimates ? lag_sum / static_cast<double>(ev.moving_estimates)
                                       : std::nan("");
     if (!errors.empty()) ev.true_position = true_sum / static_cast<double>(errors.size());
@@ -157,6 +166,9 @@ void printEvaluation(const std::array<EndEvaluation, kNumEnds>& evals, std::ostr
     if (!std::isnan(ev.within_3sigma))
       out << "   error inside the reported 3-sigma ellipsoid: " << 100 * ev.within_3sigma
           << " % of estimates\n";
+    if (!std::isnan(ev.axis_within_3sigma))
+      out << "   axis error inside the reported 3-sigma (rotation covariance): "
+          << 100 * ev.axis_within_3sigma << " % of estimates\n";
     if (ev.moving_estimates > 0)
       out << std::setprecision(1) << "   lag (signed error along the motion) [mm]: mean "
           << ev.mean_lag * 1e3 << " over " << ev.moving_estimates

@@ -248,7 +248,8 @@ int main(int argc, char** argv) {
                 << " mean_axis_deg=" << s.mean_axis_angle * 180 / M_PI
                 << " within_1cm_1deg=" << s.fractionWithin(0.01, M_PI / 180)
                 << " within_2cm_2deg=" << s.fractionWithin(0.02, 2 * M_PI / 180)
-                << " in_3sigma=" << ev.within_3sigma << "\n";
+                << " in_3sigma=" << ev.within_3sigma
+                << " axis_in_3sigma=" << ev.axis_within_3sigma << "\n";
     }
     if (!csv_path.empty()) {
       std::ofstream f(csv_path);

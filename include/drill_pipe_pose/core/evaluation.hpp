@@ -52,6 +52,11 @@ struct EndEvaluation {
   /// Fraction of scored estimates whose position error lies inside the 3-sigma ellipsoid of the
   /// reported position covariance (NaN when no covariance was given).
   double within_3sigma = 0;
+  /// The same for the axis: fraction of scored estimates whose tilt (the rotation vector of
+  /// R_true^T R_est, in the world) lies inside the 3-sigma ellipsoid of the reported rotation
+  /// covariance (roll has a huge variance there, so it is the tilt that counts). NaN when no
+  /// rotation covariance was given.
+  double axis_within_3sigma = 0;
   Eigen::Vector3d true_position = Eigen::Vector3d::Zero();  ///< mean ground-truth position
   /// Lag: mean signed position error [m] along the ground truth's direction of motion, over the
   /// estimates taken while the end moved faster than EvaluationOptions::moving_speed (negative:
