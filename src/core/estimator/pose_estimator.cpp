@@ -328,15 +328,16 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
       // the refinement leaves out the points less than support_clearance above it (all are used
       // when fewer than axis_fit.min_points would be left). The decisions and the fit's cost
       // judge every point.
-      const float clearance = static_cast<float>(config_.profile_fit.support_clearance);
-      auto clear = [&](const Eigen::Vector3f& p) {
-        return !cd.has_support || clearance <= 0 || p.z() >= cd.support_z + clearance;
-      };
+      // (has_support is only set with support_clearance > 0.)
+      const float z_clear =
+          cd.support_z + static_cast<float>(config_.profile_fit.support_clearance);
+      auto clear = [&](const Eigen::Vector3f& p) { return p.z() >= z_clear; };
       std::vector<size_t> fit_idx;
-      for (size_t i = 0; i < cd.pts.size(); ++i)
-        if (clear(cd.pts[i])) fit_idx.push_back(i);
-      const bool subset =
-          fit_idx.size() < cd.pts.size() && fit_idx.size() >= config_.axis_fit.min_points;
+      if (cd.has_support)
+        for (size_t i = 0; i < cd.pts.size(); ++i)
+          if (clear(cd.pts[i])) fit_idx.push_back(i);
+      const bool subset = cd.has_support && fit_idx.size() < cd.pts.size() &&
+                          fit_idx.size() >= config_.axis_fit.min_points;
       std::vector<Eigen::Vector3f> fit_pts, fit_eyes, fc_pts, fc_eyes;
       std::vector<float> fit_sig, fc_sig;
       if (subset) {
