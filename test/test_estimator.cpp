@@ -311,6 +311,8 @@ TEST(EstimatorConfig, RejectsBadKeysByName) {
       {[](EstimatorConfig& c) { c.carving.occlusion_margin = -0.1; }, "carving.occlusion_margin"},
       {[](EstimatorConfig& c) { c.profile_fit.support_clearance = -0.01; },
        "profile_fit.support_clearance"},
+      {[](EstimatorConfig& c) { c.instances.max_radius_offset = -0.001; },
+       "instances.max_radius_offset"},
       {[](EstimatorConfig& c) { c.instances.cluster_tolerance = 0; },
        "instances.cluster_tolerance"},
       {[](EstimatorConfig& c) { c.instances.min_decisions = 0; }, "instances.min_decisions"},
@@ -536,6 +538,62 @@ TEST(Instances, ChoiceByMeanCostWithIncumbentAmbiguityAndAbsentBetterOne) {
   EXPECT_EQ(c.index, 1) << c.reason;
 }
 
+TEST(Instances, AnotherPipeSizeDoesNotCompeteAndANewcomerWaitsForTheOthers) {
+  const EstimatorConfig::Instances ic;  // 3 decisions, max_radius_offset 2.5 mm
+  const Eigen::Vector3d a(1, 1, 1), b(2, 1, 1);
+  const int64_t dt = 33000000;
+  bool b_there = true;  // cut-out points at B's place
+  auto near = [&](const Eigen::Vector3d& o, double) {
+    return (o - b).norm() < 0.1 && !b_there ? size_t{0} : size_t{100};
+  };
+  auto radius = [](double offset) {
+    RadiusCheck r;
+    r.ok = true;
+    r.offset = offset;
+    r.std = 0.001;
+    r.points = 200;
+    return r;
+  };
+  // A fits 10 % better by cost but measures 3.5 mm thinner: from min_decisions on, B is taken.
+  std::vector<InstanceMemory> memory;
+  int64_t t = 0;
+  for (int k = 0; k < 5; ++k, t += dt) {
+    SCOPED_TRACE("cycle " + std::to_string(k));
+    const std::vector<InstanceFit> fits{{true, a, 1.0e-4, radius(-0.0035)},
+                                        {true, b, 1.1e-4, radius(0.0005)}};
+    const InstanceChoice c = chooseInstance(&memory, fits, -1, t, near, 40, ic, "box_end");
+    if (k < ic.min_decisions - 1)
+      EXPECT_EQ(c.index, -1) << c.reason;
+    else
+      EXPECT_EQ(c.index, 1) << c.reason;
+  }
+  // B gone, A alone: no pose, and the reason says why.
+  b_there = false;
+  InstanceChoice c = chooseInstance(&memory, {{true, a, 1.0e-4, radius(-0.0035)}}, -1, t, near,
+                                    40, ic, "box_end");
+  EXPECT_EQ(c.index, -1);
+  EXPECT_NE(c.reason.find("another pipe size"), std::string::npos) << c.reason;
+  // With the check off, A is the better one.
+  EstimatorConfig::Instances off = ic;
+  off.max_radius_offset = 0.0;
+  std::vector<InstanceMemory> memory_off;
+  for (int k = 0; k < 3; ++k, t += dt)
+    c = chooseInstance(&memory_off,
+                       {{true, a, 1.0e-4, radius(-0.0035)}, {true, b, 1.1e-4, radius(0.0005)}},
+                       -1, t, near, 40, off, "box_end");
+  EXPECT_EQ(c.index, 0) << c.reason;
+  // A newcomer that is the only competing fit, beside a fit of this cycle that does not compete
+  // (it failed, or took the other model), waits for min_decisions; alone, it is taken at once.
+  std::vector<InstanceMemory> fresh;
+  c = chooseInstance(&fresh, {{false, a, 0.0, {}}, {true, b, 1.0e-4, {}}}, -1, t, near, 40, ic,
+                     "pin_end");
+  EXPECT_EQ(c.index, -1);
+  EXPECT_NE(c.reason.find("not choosing yet"), std::string::npos) << c.reason;
+  std::vector<InstanceMemory> alone;
+  c = chooseInstance(&alone, {{true, b, 1.0e-4, {}}}, -1, t, near, 40, ic, "pin_end");
+  EXPECT_EQ(c.index, 0) << c.reason;
+}
+
 TEST(AxisFit, KnownAxisUnderNoiseAndOutliers) {
   for (uint32_t seed = 1; seed <= 10; ++seed) {
     SCOPED_TRACE("seed " + std::to_string(seed));
@@ -607,6 +665,54 @@ TEST(ProfileRegistration, RayHitsTheVisibleSurfaceAndUndoesEdgeBias) {
   EXPECT_TRUE(hit);
   EXPECT_LT(std::abs(e_closest), 0.005);
   EXPECT_NEAR(e_ray, -0.01 * std::cos(M_PI / 4), 1e-6);  // behind the face, point-to-plane
+}
+
+TEST(ProfileRegistration, RadiusCheckMeasuresAThinnerJointWhateverThePose) {
+  // Points on the tool joint's OD (end frame z in [-0.25, -0.03]) as four cameras around it see
+  // them, 3 mm depth noise along their rays. radiusOffset recovers the rendered radius minus
+  // the model's within 1 mm, at the true pose and at one 3 mm and 0.5 deg off (the pose is
+  // eliminated, so its error does not pass for a radius); 4.75 mm thinner is a 4.5" pipe's.
+  const ToolJointDimensions dims;
+  const ProfileModel box(EndLabel::kBoxEnd, dims);
+  const double R = dims.tool_joint_od / 2;
+  const Eigen::Vector3d origin(1.0, 2.0, 0.5);
+  const Eigen::Vector3d z = Eigen::Vector3d(0.1, 0.05, 1.0).normalized();
+  const Eigen::Vector3d e1 = z.unitOrthogonal(), e2 = z.cross(e1);
+  for (const double delta : {0.0, -0.00475, 0.003}) {
+    SCOPED_TRACE("rendered radius offset " + std::to_string(delta));
+    std::mt19937 rng(7);  // fixed seed
+    std::normal_distribution<double> noise(0.0, 0.003);
+    std::vector<Eigen::Vector3f> pts, eyes;
+    for (int c = 0; c < 4; ++c) {
+      const double az = c * M_PI / 2 + 0.3;
+      const Eigen::Vector3d eye = origin + 3.0 * (std::cos(az) * e1 + std::sin(az) * e2) +
+                                  1.5 * Eigen::Vector3d::UnitZ();
+      for (double zc = -0.25; zc <= -0.03; zc += 0.01)
+        for (double phi = 0; phi < 2 * M_PI; phi += 0.08) {
+          const Eigen::Vector3d radial = std::cos(phi) * e1 + std::sin(phi) * e2;
+          const Eigen::Vector3d on = origin + zc * z + (R + delta) * radial;
+          const Eigen::Vector3d ray = (on - eye).normalized();
+          if (radial.dot(-ray) < 0.2) continue;  // facing the camera
+          pts.push_back((on + noise(rng) * ray).cast<float>());
+          eyes.push_back(eye.cast<float>());
+        }
+    }
+    const std::vector<uint8_t> all(pts.size(), 1);
+    const RadiusCheck at_truth = radiusOffset(box, R, origin, z, pts, eyes, all);
+    ASSERT_TRUE(at_truth.ok);
+    EXPECT_NEAR(at_truth.offset, delta, 0.001);
+    EXPECT_GT(at_truth.std, 0.0);
+    EXPECT_LT(at_truth.std, 0.001);
+    EXPECT_GT(at_truth.points, pts.size() / 2);
+    const Eigen::Vector3d z_off = (z + 0.0087 * e2).normalized();  // 0.5 deg
+    const RadiusCheck off_pose =
+        radiusOffset(box, R, origin + 0.003 * e1, z_off, pts, eyes, all);
+    ASSERT_TRUE(off_pose.ok);
+    EXPECT_NEAR(off_pose.offset, delta, 0.001);
+  }
+  // No point on the OD: nothing measured.
+  const std::vector<Eigen::Vector3f> none;
+  EXPECT_FALSE(radiusOffset(box, R, origin, z, none, none, {}).ok);
 }
 
 TEST(TemporalFilter, SmoothsAStaticEndFollowsAMovingOneWithoutLagAndRestartsOnJumps) {

@@ -528,6 +528,76 @@ double profileResidual(const ProfileModel& model, const Eigen::Vector3d& p,
   return model.distance(zc, rc, grad);
 }
 
+Eigen::Matrix<double, 5, 1> profileJacobian(const Eigen::Vector3d& q, const Eigen::Vector3d& z,
+                                            const Eigen::Vector3d& e1, const Eigen::Vector3d& e2,
+                                            const Eigen::Vector2d& grad) {
+  const double zc = q.dot(z);
+  const Eigen::Vector3d qp = q - zc * z;
+  const double rc = qp.norm();
+  Eigen::Matrix<double, 5, 1> J = Eigen::Matrix<double, 5, 1>::Zero();
+  if (rc < 1e-9) return J;
+  const Eigen::Vector3d u = qp / rc;
+  J << -grad.y() * u.dot(e1), -grad.y() * u.dot(e2), -grad.x(),
+      grad.x() * q.dot(e1) - grad.y() * zc * u.dot(e1),
+      grad.x() * q.dot(e2) - grad.y() * zc * u.dot(e2);
+  return J;
+}
+
+RadiusCheck radiusOffset(const ProfileModel& model, double od_radius,
+                         const Eigen::Vector3d& origin, const Eigen::Vector3d& z_axis,
+                         const std::vector<Eigen::Vector3f>& points,
+                         const std::vector<Eigen::Vector3f>& eyes,
+                         const std::vector<uint8_t>& inlier_mask) {
+  RadiusCheck out;
+  const Eigen::Vector3d z = z_axis.normalized();
+  Eigen::Vector3d e1, e2;
+  orthoBasis(z, &e1, &e2);
+  // Normal equations of (pose, radius): [P G; G^T D] [dpose; dr] = [Je; ge], the pose then
+  // eliminated (Schur complement): the radius that the points imply whatever the pose.
+  Eigen::Matrix<double, 5, 5> P = Eigen::Matrix<double, 5, 5>::Zero();
+  Eigen::Matrix<double, 5, 1> Je = Eigen::Matrix<double, 5, 1>::Zero(),
+                              G = Eigen::Matrix<double, 5, 1>::Zero();
+  double D = 0, ge = 0, ss = 0;
+  size_t n = 0;
+  const size_t m = std::min({points.size(), eyes.size(), inlier_mask.size()});
+  for (size_t i = 0; i < m; ++i) {
+    if (!inlier_mask[i]) continue;
+    const Eigen::Vector3d p = points[i].cast<double>();
+    Eigen::Vector2d gr;
+    bool hit = false;
+    const double e = profileResidual(model, p, origin, z, e1, e2, &eyes[i], &gr, &hit);
+    if (!hit) continue;
+    const Eigen::Vector3d q = p - origin;
+    const double zc = q.dot(z), rc = (q - zc * z).norm();
+    const Eigen::Matrix<double, 5, 1> J = profileJacobian(q, z, e1, e2, gr);
+    P += J * J.transpose();
+    Je += J * e;
+    ss += e * e;
+    ++n;
+    // On the tool joint's OD (a radial normal, the surface at the OD): a larger OD moves the
+    // surface outward, toward the point.
+    const double hit_r = rc - e * gr.y();
+    if (std::abs(gr.x()) > 0.1 || std::abs(hit_r - od_radius) > 0.003) continue;
+    const double jr = -gr.y();
+    G += J * jr;
+    D += jr * jr;
+    ge += jr * e;
+    ++out.points;
+  }
+  if (n < 10 || out.points < 10) return out;
+  Eigen::Matrix<double, 5, 5> Pd = P;
+  Pd.diagonal().array() += 1e-9 + 1e-9 * P.diagonal().array();
+  const Eigen::LDLT<Eigen::Matrix<double, 5, 5>> ldlt(Pd);
+  const Eigen::Matrix<double, 5, 1> PinvG = ldlt.solve(G);
+  const double info = D - G.dot(PinvG);
+  if (!(info > 1e-9 * D)) return out;
+  out.ok = true;
+  // e ~ J dpose + jr dr: dr solves the reduced system; its sign makes a thinner joint negative.
+  out.offset = -(ge - PinvG.dot(Je)) / info;
+  out.std = std::sqrt(ss / static_cast<double>(n) / info);
+  return out;
+}
+
 double profileCost(const std::vector<Eigen::Vector3f>& points, const ProfileModel& model,
                    const Eigen::Vector3d& origin, const Eigen::Vector3d& z, double truncation,
                    const std::vector<Eigen::Vector3f>* eyes) {
@@ -648,11 +718,7 @@ ProfileFitResult refineProfile(const std::vector<Eigen::Vector3f>& points,
       const double sigma = sigmas[i];
       const double k = config.huber * sigma;
       const double w = (d <= k ? 1.0 : k / d) / (sigma * sigma);
-      const Eigen::Vector3d u = qp / rc;
-      Eigen::Matrix<double, 5, 1> J;
-      J << -gr.y() * u.dot(e1), -gr.y() * u.dot(e2), -gr.x(),
-          gr.x() * q.dot(e1) - gr.y() * zc * u.dot(e1),
-          gr.x() * q.dot(e2) - gr.y() * zc * u.dot(e2);
+      Eigen::Matrix<double, 5, 1> J = profileJacobian(q, z, e1, e2, gr);
       // No pull along the axis from the untrusted part.
       if (!axial_info) J(2) = 0.0;
       H += w * J * J.transpose();

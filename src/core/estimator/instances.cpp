@@ -116,6 +116,10 @@ InstanceChoice chooseInstance(std::vector<InstanceMemory>* memory_ptr,
     InstanceMemory& e = memory[m];
     e.decisions = std::min(e.decisions + 1, ic.memory_decisions);
     e.mean_cost += (fits[k].cost - e.mean_cost) / e.decisions;
+    if (fits[k].radius.ok) {
+      e.radius_samples = std::min(e.radius_samples + 1, ic.memory_decisions);
+      e.radius_offset += (fits[k].radius.offset - e.radius_offset) / e.radius_samples;
+    }
     e.origin = fits[k].origin;
     e.stamp_ns = stamp_ns;
     updated[m] = true;
@@ -123,10 +127,42 @@ InstanceChoice chooseInstance(std::vector<InstanceMemory>* memory_ptr,
   }
   InstanceChoice choice;
   if (comp.empty()) return choice;
-  for (size_t e = 0; e < memory.size(); ++e)
-    if (!updated[e] && memory[e].decisions >= ic.min_decisions &&
-        points_near(memory[e].origin, ic.track_gate) >= min_points)
+  // An entry with no fit this cycle whose place still holds the label's points: with enough
+  // decisions it competes; with fewer it is a candidate not known yet (its points carved away
+  // this cycle, say). Like an instance fitted this cycle that does not compete (its fit failed
+  // or took the other model), it keeps a newcomer from being taken as the only one.
+  bool pending = false;
+  for (const InstanceFit& f : fits) pending = pending || !f.competes;
+  for (size_t e = 0; e < memory.size(); ++e) {
+    if (updated[e] || points_near(memory[e].origin, ic.track_gate) < min_points) continue;
+    if (memory[e].decisions >= ic.min_decisions)
       comp.push_back({-1, e, memory[e].mean_cost, memory[e].decisions});
+    else
+      pending = true;
+  }
+  // Another pipe size does not compete.
+  int other_size = -1;
+  for (size_t c = 0; c < comp.size();) {
+    const InstanceMemory& e = memory[comp[c].mem];
+    if (ic.max_radius_offset > 0 && e.radius_samples >= ic.min_decisions &&
+        std::abs(e.radius_offset) > ic.max_radius_offset) {
+      other_size = static_cast<int>(comp[c].mem);
+      comp.erase(comp.begin() + static_cast<std::ptrdiff_t>(c));
+    } else {
+      ++c;
+    }
+  }
+  if (comp.empty()) {
+    const InstanceMemory& e = memory[static_cast<size_t>(other_size)];
+    std::ostringstream s;
+    s.precision(3);
+    s << "the " << label << " instance at " << at(e.origin) << " is another pipe size: its "
+      << "tool joint's radius measures " << e.radius_offset * 1e3 << " mm off the model's "
+      << "(mean of " << e.radius_samples << " decisions; instances.max_radius_offset = "
+      << ic.max_radius_offset * 1e3 << " mm), or too few of its points are good to tell";
+    choice.reason = s.str();
+    return choice;
+  }
   std::stable_sort(comp.begin(), comp.end(),
                    [](const Competitor& a, const Competitor& b) { return a.mean < b.mean; });
   auto take = [&](size_t c) {
@@ -157,8 +193,9 @@ InstanceChoice chooseInstance(std::vector<InstanceMemory>* memory_ptr,
     choice.reason = s.str();
     return choice;
   }
-  if (comp.size() > 1 && comp[0].decisions < ic.min_decisions) {
-    s << comp.size() << " " << label << " instances in the work zone, the best fitting one at "
+  if (comp[0].decisions < ic.min_decisions && (comp.size() > 1 || (pending && incumbent < 0))) {
+    s << comp.size() + (pending ? 1 : 0) << (pending ? " or more " : " ") << label
+      << " instances in the work zone, the best fitting one at "
       << at(best_at) << " decided in " << comp[0].decisions
       << " cycle(s) of instances.min_decisions = " << ic.min_decisions << ": not choosing yet";
     choice.reason = s.str();

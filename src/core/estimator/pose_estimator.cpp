@@ -696,9 +696,15 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
     bool any_native = false;
     for (const Candidate& c : inst) any_native = any_native || (c.ok && c.fit.label == cd.detected);
     std::vector<InstanceFit> fits(inst.size());
-    for (size_t k = 0; k < inst.size(); ++k)
-      fits[k] = {inst[k].ok && (!any_native || inst[k].fit.label == cd.detected),
-                 inst[k].fit.origin, inst[k].fit.cost};
+    for (size_t k = 0; k < inst.size(); ++k) {
+      const Candidate& c = inst[k];
+      fits[k] = {c.ok && (!any_native || c.fit.label == cd.detected), c.fit.origin, c.fit.cost,
+                 {}};
+      if (fits[k].competes && ic.max_radius_offset > 0)
+        fits[k].radius = radiusOffset(impl_->models[static_cast<int>(c.fit.label)],
+                                      config_.dims.tool_joint_od / 2, c.fit.origin, c.fit.z,
+                                      c.pts, c.eyes, c.fit.inlier_mask);
+    }
     const InstanceChoice choice = chooseInstance(
         &impl_->memory[l], fits, track_k >= 0 ? 0 : -1, cycle_stamp_ns,
         [&](const Eigen::Vector3d& o, double radius) {

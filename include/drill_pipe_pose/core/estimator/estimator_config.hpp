@@ -91,6 +91,13 @@ struct EstimatorConfig {
     /// the place of the incumbent (the track's instance, or the one chosen last).
     int min_decisions = 3;
     int memory_decisions = 30;  ///< decisions averaged per instance (running mean)
+    /// [m] An instance whose tool-joint radius, measured at its decisions (radiusOffset in
+    /// stages.hpp) and averaged over at least min_decisions of them, is off the model's by more
+    /// than this is another pipe size and does not compete (0: off). A 4.5" pipe's 6 1/4" joint
+    /// is 4.75 mm thinner than a 5" pipe's 6 5/8" one: it measures 2-4.6 mm thinner at 7 m
+    /// (cluttered), the right joint 0-3 mm thicker (1 mm per decision std); worn joints are at
+    /// most 1 mm thinner (DESIGN.md).
+    double max_radius_offset = 0.0025;
     double memory_s = 3.0;      ///< [s] an instance not decided for this long is forgotten
   } instances;
 

@@ -74,6 +74,14 @@ std::vector<CloudPoint> carve(const std::vector<CloudPoint>& points, EndLabel la
 std::vector<std::vector<size_t>> euclideanClusters(const std::vector<CloudPoint>& points,
                                                    double tolerance, size_t min_points);
 
+/// The tool-joint radius that a fit's inlier points imply, relative to the model's.
+struct RadiusCheck {
+  bool ok = false;     ///< enough points on the OD, and they fix the radius
+  double offset = 0;   ///< [m] measured minus model radius (a thinner joint: negative)
+  double std = 0;      ///< [m] its standard deviation (from the residuals' scatter)
+  size_t points = 0;   ///< inlier points on the OD
+};
+
 /// What the decisions have shown about one instance of a label (a cluster of its carved points,
 /// at one place) over the last cycles (EstimatorConfig::Instances).
 struct InstanceMemory {
@@ -82,6 +90,10 @@ struct InstanceMemory {
   /// `decisions` decisions (running mean).
   double mean_cost = 0.0;
   int decisions = 0;     ///< at most instances.memory_decisions
+  /// Mean tool-joint radius offset (RadiusCheck::offset [m]) of the last `radius_samples`
+  /// decisions that measured it (running mean, at most instances.memory_decisions).
+  double radius_offset = 0.0;
+  int radius_samples = 0;
   int64_t stamp_ns = 0;  ///< the last decision's cycle
   bool chosen = false;   ///< the label's end was this instance at its last decided pose
 };
@@ -91,6 +103,7 @@ struct InstanceFit {
   bool competes = false;  ///< a valid fit that may be the label's end (the caller decides)
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();
   double cost = 0.0;  ///< ProfileFitResult::cost
+  RadiusCheck radius;  ///< the fit's radius check (not ok: not measured)
 };
 
 /// The choice among a label's instances: `index` into the fits, or -1 with `reason`.
@@ -105,13 +118,19 @@ struct InstanceChoice {
 /// (the one within instances.track_gate; a new one otherwise), and instances compete by their
 /// entries' mean cost:
 ///  - an entry not fitted this cycle whose place still holds at least `min_points` of the
-///    label's cut-out points (`points_near(origin, radius)`) competes too: when it is the best,
-///    none is chosen (a worse one is not taken in its place);
+///    label's cut-out points (`points_near(origin, radius)`) competes too when it has
+///    min_decisions decisions: when it is the best, none is chosen (a worse one is not taken in
+///    its place);
+///  - an instance whose tool-joint radius (each fit's `radius`; the entry's mean over at least
+///    min_decisions of them) is off the model's by more than instances.max_radius_offset is
+///    another pipe size: it does not compete (when that leaves none, the reason says so);
 ///  - the incumbent (the track's instance when it competes, else the entry chosen last) keeps
 ///    its place unless another is better by instances.min_cost_margin over at least
 ///    instances.min_decisions decisions;
 ///  - otherwise none is chosen while the best has fewer than min_decisions decisions and
-///    others compete, or while the runner-up is within min_cost_margin (two alike).
+///    others compete - or, without an incumbent, while other instances are not known yet: an
+///    entry with fewer decisions whose place still holds points, or a fit of this cycle that
+///    does not compete - or while the runner-up is within min_cost_margin (two alike).
 /// Deterministic. `label` names the label in the reasons. With no competing fit, index -1 and
 /// an empty reason (the caller explains).
 /// How many of a label's cut-out points lie within `radius` [m] of `origin` [world].
@@ -270,6 +289,24 @@ double profileResidual(const ProfileModel& model, const Eigen::Vector3d& p,
                        const Eigen::Vector3d& e1, const Eigen::Vector3d& e2,
                        const Eigen::Vector3f* eye, Eigen::Vector2d* grad = nullptr,
                        bool* ray_hit = nullptr);
+
+/// The change of a residual with normal `grad` ((z, r), profileResidual) at the point q
+/// (relative to the origin) per unit of the fit's 5 parameters: the origin along e1, e2, z and
+/// the axis tilted toward e1, e2 (refineProfile).
+Eigen::Matrix<double, 5, 1> profileJacobian(const Eigen::Vector3d& q, const Eigen::Vector3d& z,
+                                            const Eigen::Vector3d& e1, const Eigen::Vector3d& e2,
+                                            const Eigen::Vector2d& grad);
+
+/// The radius offset of the tool joint's OD (radius od_radius in `model`) that best explains the
+/// inlier residuals of a fit at (origin, z) together with a change of the pose (the pose
+/// eliminated, so a shift of the axis does not pass for a radius). Another pipe size's joint
+/// fits the model almost as well as the right one (its axis moves to make up for the radius),
+/// but not its radius: 4.75 mm thinner for a 4.5" pipe's 6 1/4" joint beside a 5" pipe's.
+RadiusCheck radiusOffset(const ProfileModel& model, double od_radius,
+                         const Eigen::Vector3d& origin, const Eigen::Vector3d& z,
+                         const std::vector<Eigen::Vector3f>& points,
+                         const std::vector<Eigen::Vector3f>& eyes,
+                         const std::vector<uint8_t>& inlier_mask);
 
 /// Mean truncated squared residual [m^2] (profileResidual) of the points against `model` placed
 /// at (origin, z); `eyes` as in refineProfile.
