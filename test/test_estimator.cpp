@@ -311,8 +311,8 @@ TEST(EstimatorConfig, RejectsBadKeysByName) {
       {[](EstimatorConfig& c) { c.carving.occlusion_margin = -0.1; }, "carving.occlusion_margin"},
       {[](EstimatorConfig& c) { c.profile_fit.support_clearance = -0.01; },
        "profile_fit.support_clearance"},
-      {[](EstimatorConfig& c) { c.instances.max_radius_offset = -0.001; },
-       "instances.max_radius_offset"},
+      {[](EstimatorConfig& c) { c.instances.radius_difference = -0.001; },
+       "instances.radius_difference"},
       {[](EstimatorConfig& c) { c.instances.cluster_tolerance = 0; },
        "instances.cluster_tolerance"},
       {[](EstimatorConfig& c) { c.instances.min_decisions = 0; }, "instances.min_decisions"},
@@ -539,7 +539,7 @@ TEST(Instances, ChoiceByMeanCostWithIncumbentAmbiguityAndAbsentBetterOne) {
 }
 
 TEST(Instances, AnotherPipeSizeDoesNotCompeteAndANewcomerWaitsForTheOthers) {
-  const EstimatorConfig::Instances ic;  // 3 decisions, max_radius_offset 2.5 mm
+  const EstimatorConfig::Instances ic;  // 3 decisions, radius_difference 2.5 mm
   const Eigen::Vector3d a(1, 1, 1), b(2, 1, 1);
   const int64_t dt = 33000000;
   bool b_there = true;  // cut-out points at B's place
@@ -554,7 +554,8 @@ TEST(Instances, AnotherPipeSizeDoesNotCompeteAndANewcomerWaitsForTheOthers) {
     r.points = 200;
     return r;
   };
-  // A fits 10 % better by cost but measures 3.5 mm thinner: from min_decisions on, B is taken.
+  // A fits 10 % better by cost but measures 4 mm thinner than B, which measures the model's
+  // radius: from min_decisions on, B is taken.
   std::vector<InstanceMemory> memory;
   int64_t t = 0;
   for (int k = 0; k < 5; ++k, t += dt) {
@@ -567,15 +568,29 @@ TEST(Instances, AnotherPipeSizeDoesNotCompeteAndANewcomerWaitsForTheOthers) {
     else
       EXPECT_EQ(c.index, 1) << c.reason;
   }
-  // B gone, A alone: no pose, and the reason says why.
+  // B gone (still remembered), A alone: no pose, and the reason names both places.
   b_there = false;
   InstanceChoice c = chooseInstance(&memory, {{true, a, 1.0e-4, radius(-0.0035)}}, -1, t, near,
                                     40, ic, "box_end");
   EXPECT_EQ(c.index, -1);
   EXPECT_NE(c.reason.find("another pipe size"), std::string::npos) << c.reason;
+  EXPECT_NE(c.reason.find("(2, 1, 1)"), std::string::npos) << c.reason;
+  // Relative: both measured 3 mm thicker (a rig's common depth offset) change nothing, and a
+  // lone joint is never judged by its radius (nothing to compare it with).
+  std::vector<InstanceMemory> biased, lone;
+  for (int k = 0; k < 4; ++k, t += dt) {
+    SCOPED_TRACE("biased / lone cycle " + std::to_string(k));
+    c = chooseInstance(&biased,
+                       {{true, a, 1.0e-4, radius(0.0030)}, {true, b, 1.2e-4, radius(0.0035)}},
+                       -1, t, near, 40, ic, "box_end");
+    EXPECT_EQ(c.index, k < ic.min_decisions - 1 ? -1 : 0) << c.reason;
+    c = chooseInstance(&lone, {{true, a, 1.0e-4, radius(-0.005)}}, -1, t, near, 40, ic,
+                       "box_end");
+    EXPECT_EQ(c.index, 0) << c.reason;
+  }
   // With the check off, A is the better one.
   EstimatorConfig::Instances off = ic;
-  off.max_radius_offset = 0.0;
+  off.radius_difference = 0.0;
   std::vector<InstanceMemory> memory_off;
   for (int k = 0; k < 3; ++k, t += dt)
     c = chooseInstance(&memory_off,

@@ -48,7 +48,7 @@ EstimatorConfig loadEstimatorConfig(const ros::NodeHandle& pnh) {
   readNumber(pnh, "instances/min_decisions", c.instances.min_decisions, 1.0);
   readNumber(pnh, "instances/memory_decisions", c.instances.memory_decisions, 1.0);
   readNumber(pnh, "instances/memory_s", c.instances.memory_s, 0.0);
-  readNumber(pnh, "instances/max_radius_offset", c.instances.max_radius_offset, 0.0);
+  readNumber(pnh, "instances/radius_difference", c.instances.radius_difference, 0.0);
 
   readNumber(pnh, "axis_fit/min_points", c.axis_fit.min_points, 3.0);
   readNumber(pnh, "axis_fit/max_points", c.axis_fit.max_points, 3.0);

@@ -56,7 +56,7 @@ void validateConfig(const EstimatorConfig& c) {
   at_least(c.instances.min_decisions, 1, "instances.min_decisions");
   at_least(c.instances.memory_decisions, 1, "instances.memory_decisions");
   finite_positive(c.instances.memory_s, "instances.memory_s");
-  non_negative(c.instances.max_radius_offset, "instances.max_radius_offset");
+  non_negative(c.instances.radius_difference, "instances.radius_difference");
   at_least(c.axis_fit.min_points, 10, "axis_fit.min_points");
   at_least(c.axis_fit.max_points, 20, "axis_fit.max_points");
   if (c.profile_fit.max_points < c.axis_fit.min_points)

@@ -80,6 +80,18 @@ std::string at(const Eigen::Vector3d& o) {
 
 }  // namespace
 
+const InstanceMemory* otherSize(const InstanceMemory& entry,
+                                const std::vector<InstanceMemory>& memory,
+                                const EstimatorConfig::Instances& ic) {
+  if (!(ic.radius_difference > 0) || entry.radius_samples < ic.min_decisions) return nullptr;
+  for (const InstanceMemory& o : memory)
+    if (&o != &entry && o.radius_samples >= ic.min_decisions &&
+        std::abs(o.radius_offset) < std::abs(entry.radius_offset) &&
+        std::abs(entry.radius_offset - o.radius_offset) > ic.radius_difference)
+      return &o;
+  return nullptr;
+}
+
 InstanceChoice chooseInstance(std::vector<InstanceMemory>* memory_ptr,
                               const std::vector<InstanceFit>& fits, int track, int64_t stamp_ns,
                               const PointsNear& points_near, size_t min_points,
@@ -141,25 +153,26 @@ InstanceChoice chooseInstance(std::vector<InstanceMemory>* memory_ptr,
       pending = true;
   }
   // Another pipe size does not compete.
-  int other_size = -1;
+  int excluded = -1;
+  const InstanceMemory* larger = nullptr;
   for (size_t c = 0; c < comp.size();) {
-    const InstanceMemory& e = memory[comp[c].mem];
-    if (ic.max_radius_offset > 0 && e.radius_samples >= ic.min_decisions &&
-        std::abs(e.radius_offset) > ic.max_radius_offset) {
-      other_size = static_cast<int>(comp[c].mem);
+    if (const InstanceMemory* o = otherSize(memory[comp[c].mem], memory, ic)) {
+      excluded = static_cast<int>(comp[c].mem);
+      larger = o;
       comp.erase(comp.begin() + static_cast<std::ptrdiff_t>(c));
     } else {
       ++c;
     }
   }
   if (comp.empty()) {
-    const InstanceMemory& e = memory[static_cast<size_t>(other_size)];
+    const InstanceMemory& e = memory[static_cast<size_t>(excluded)];
     std::ostringstream s;
     s.precision(3);
     s << "the " << label << " instance at " << at(e.origin) << " is another pipe size: its "
-      << "tool joint's radius measures " << e.radius_offset * 1e3 << " mm off the model's "
-      << "(mean of " << e.radius_samples << " decisions; instances.max_radius_offset = "
-      << ic.max_radius_offset * 1e3 << " mm), or too few of its points are good to tell";
+      << "tool joint's radius measures " << (e.radius_offset - larger->radius_offset) * 1e3
+      << " mm off that of the one at " << at(larger->origin) << ", which is nearer the model's "
+      << "(means of " << e.radius_samples << " and " << larger->radius_samples
+      << " decisions; instances.radius_difference = " << ic.radius_difference * 1e3 << " mm)";
     choice.reason = s.str();
     return choice;
   }
@@ -193,11 +206,18 @@ InstanceChoice chooseInstance(std::vector<InstanceMemory>* memory_ptr,
     choice.reason = s.str();
     return choice;
   }
-  if (comp[0].decisions < ic.min_decisions && (comp.size() > 1 || (pending && incumbent < 0))) {
+  // Not yet: the best is not known well enough among others; or, without an incumbent, another
+  // is not (its decisions - its radius too - may still rule the best out).
+  int fewest = comp[0].decisions;
+  for (const Competitor& c : comp) fewest = std::min(fewest, c.decisions);
+  const bool best_unknown = comp.size() > 1 && comp[0].decisions < ic.min_decisions;
+  const bool other_unknown =
+      incumbent < 0 && (pending || (comp.size() > 1 && fewest < ic.min_decisions));
+  if (best_unknown || other_unknown) {
     s << comp.size() + (pending ? 1 : 0) << (pending ? " or more " : " ") << label
-      << " instances in the work zone, the best fitting one at "
-      << at(best_at) << " decided in " << comp[0].decisions
-      << " cycle(s) of instances.min_decisions = " << ic.min_decisions << ": not choosing yet";
+      << " instances in the work zone, not all decided in instances.min_decisions = "
+      << ic.min_decisions << " cycles yet (the best fitting one at " << at(best_at) << " in "
+      << comp[0].decisions << "): not choosing yet";
     choice.reason = s.str();
     return choice;
   }

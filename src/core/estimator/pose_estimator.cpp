@@ -700,7 +700,7 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
       const Candidate& c = inst[k];
       fits[k] = {c.ok && (!any_native || c.fit.label == cd.detected), c.fit.origin, c.fit.cost,
                  {}};
-      if (fits[k].competes && ic.max_radius_offset > 0)
+      if (fits[k].competes && ic.radius_difference > 0)
         fits[k].radius = radiusOffset(impl_->models[static_cast<int>(c.fit.label)],
                                       config_.dims.tool_joint_od / 2, c.fit.origin, c.fit.z,
                                       c.pts, c.eyes, c.fit.inlier_mask);

@@ -91,13 +91,15 @@ struct EstimatorConfig {
     /// the place of the incumbent (the track's instance, or the one chosen last).
     int min_decisions = 3;
     int memory_decisions = 30;  ///< decisions averaged per instance (running mean)
-    /// [m] An instance whose tool-joint radius, measured at its decisions (radiusOffset in
-    /// stages.hpp) and averaged over at least min_decisions of them, is off the model's by more
-    /// than this is another pipe size and does not compete (0: off). A 4.5" pipe's 6 1/4" joint
-    /// is 4.75 mm thinner than a 5" pipe's 6 5/8" one: it measures 2-4.6 mm thinner at 7 m
-    /// (cluttered), the right joint 0-3 mm thicker (1 mm per decision std); worn joints are at
-    /// most 1 mm thinner (DESIGN.md).
-    double max_radius_offset = 0.0025;
+    /// [m] Two instances whose tool-joint radii, measured at their decisions (radiusOffset in
+    /// stages.hpp) and averaged over at least min_decisions of them, differ by more than this
+    /// are two pipe sizes: the one further from the model's radius does not compete (0: off).
+    /// Relative, because a rig's common depth offset scales every measured radius alike (the
+    /// kinect_v2_field profile measures the right joint up to 3 mm off); so a lone joint of
+    /// another size is not recognised. A 4.5" pipe's 6 1/4" joint is 4.75 mm thinner than a 5"
+    /// pipe's 6 5/8" one: in cluttered (7 m) the two measure -3.1 and +0.9 mm on average, 1 mm
+    /// std per decision; worn joints are at most 1 mm thinner (DESIGN.md).
+    double radius_difference = 0.0025;
     double memory_s = 3.0;      ///< [s] an instance not decided for this long is forgotten
   } instances;
 

@@ -98,6 +98,13 @@ struct InstanceMemory {
   bool chosen = false;   ///< the label's end was this instance at its last decided pose
 };
 
+/// The entry of `memory` whose tool joint shows `entry` to be another pipe size, or null: both
+/// have at least min_decisions radius measurements, the other's mean is nearer the model's
+/// radius, and the two differ by more than radius_difference (never when that is 0).
+const InstanceMemory* otherSize(const InstanceMemory& entry,
+                                const std::vector<InstanceMemory>& memory,
+                                const EstimatorConfig::Instances& config);
+
 /// One instance decided this cycle, for chooseInstance.
 struct InstanceFit {
   bool competes = false;  ///< a valid fit that may be the label's end (the caller decides)
@@ -122,15 +129,16 @@ struct InstanceChoice {
 ///    min_decisions decisions: when it is the best, none is chosen (a worse one is not taken in
 ///    its place);
 ///  - an instance whose tool-joint radius (each fit's `radius`; the entry's mean over at least
-///    min_decisions of them) is off the model's by more than instances.max_radius_offset is
-///    another pipe size: it does not compete (when that leaves none, the reason says so);
+///    min_decisions of them) differs by more than instances.radius_difference from another
+///    entry's that is nearer the model's is another pipe size (otherSize): it does not compete
+///    (when that leaves none, the reason says so);
 ///  - the incumbent (the track's instance when it competes, else the entry chosen last) keeps
 ///    its place unless another is better by instances.min_cost_margin over at least
 ///    instances.min_decisions decisions;
 ///  - otherwise none is chosen while the best has fewer than min_decisions decisions and
-///    others compete - or, without an incumbent, while other instances are not known yet: an
-///    entry with fewer decisions whose place still holds points, or a fit of this cycle that
-///    does not compete - or while the runner-up is within min_cost_margin (two alike).
+///    others compete - or, without an incumbent, while any other instance has fewer, counting
+///    an entry with fewer whose place still holds points and a fit of this cycle that does not
+///    compete - or while the runner-up is within min_cost_margin (two alike).
 /// Deterministic. `label` names the label in the reasons. With no competing fit, index -1 and
 /// an empty reason (the caller explains).
 /// How many of a label's cut-out points lie within `radius` [m] of `origin` [world].
