@@ -528,15 +528,11 @@ double profileResidual(const ProfileModel& model, const Eigen::Vector3d& p,
   return model.distance(zc, rc, grad);
 }
 
-Eigen::Matrix<double, 5, 1> profileJacobian(const Eigen::Vector3d& q, const Eigen::Vector3d& z,
-                                            const Eigen::Vector3d& e1, const Eigen::Vector3d& e2,
+Eigen::Matrix<double, 5, 1> profileJacobian(const Eigen::Vector3d& q, double zc,
+                                            const Eigen::Vector3d& u, const Eigen::Vector3d& e1,
+                                            const Eigen::Vector3d& e2,
                                             const Eigen::Vector2d& grad) {
-  const double zc = q.dot(z);
-  const Eigen::Vector3d qp = q - zc * z;
-  const double rc = qp.norm();
-  Eigen::Matrix<double, 5, 1> J = Eigen::Matrix<double, 5, 1>::Zero();
-  if (rc < 1e-9) return J;
-  const Eigen::Vector3d u = qp / rc;
+  Eigen::Matrix<double, 5, 1> J;
   J << -grad.y() * u.dot(e1), -grad.y() * u.dot(e2), -grad.x(),
       grad.x() * q.dot(e1) - grad.y() * zc * u.dot(e1),
       grad.x() * q.dot(e2) - grad.y() * zc * u.dot(e2);
@@ -568,8 +564,11 @@ RadiusCheck radiusOffset(const ProfileModel& model, double od_radius,
     const double e = profileResidual(model, p, origin, z, e1, e2, &eyes[i], &gr, &hit);
     if (!hit) continue;
     const Eigen::Vector3d q = p - origin;
-    const double zc = q.dot(z), rc = (q - zc * z).norm();
-    const Eigen::Matrix<double, 5, 1> J = profileJacobian(q, z, e1, e2, gr);
+    const double zc = q.dot(z);
+    const Eigen::Vector3d qp = q - zc * z;
+    const double rc = qp.norm();
+    if (rc < 1e-9) continue;
+    const Eigen::Matrix<double, 5, 1> J = profileJacobian(q, zc, qp / rc, e1, e2, gr);
     P += J * J.transpose();
     Je += J * e;
     ss += e * e;
@@ -718,7 +717,7 @@ ProfileFitResult refineProfile(const std::vector<Eigen::Vector3f>& points,
       const double sigma = sigmas[i];
       const double k = config.huber * sigma;
       const double w = (d <= k ? 1.0 : k / d) / (sigma * sigma);
-      Eigen::Matrix<double, 5, 1> J = profileJacobian(q, z, e1, e2, gr);
+      Eigen::Matrix<double, 5, 1> J = profileJacobian(q, zc, qp / rc, e1, e2, gr);
       // No pull along the axis from the untrusted part.
       if (!axial_info) J(2) = 0.0;
       H += w * J * J.transpose();

@@ -143,14 +143,14 @@ InstanceChoice chooseInstance(std::vector<InstanceMemory>* memory_ptr,
   // decisions it competes; with fewer it is a candidate not known yet (its points carved away
   // this cycle, say). Like an instance fitted this cycle that does not compete (its fit failed
   // or took the other model), it keeps a newcomer from being taken as the only one.
-  bool pending = false;
-  for (const InstanceFit& f : fits) pending = pending || !f.competes;
+  bool failed_fit = false, undecided_entry = false;
+  for (const InstanceFit& f : fits) failed_fit = failed_fit || !f.competes;
   for (size_t e = 0; e < memory.size(); ++e) {
     if (updated[e] || points_near(memory[e].origin, ic.track_gate) < min_points) continue;
     if (memory[e].decisions >= ic.min_decisions)
       comp.push_back({-1, e, memory[e].mean_cost, memory[e].decisions});
     else
-      pending = true;
+      undecided_entry = true;
   }
   // Another pipe size does not compete.
   int excluded = -1;
@@ -207,12 +207,15 @@ InstanceChoice chooseInstance(std::vector<InstanceMemory>* memory_ptr,
     return choice;
   }
   // Not yet: the best is not known well enough among others; or, without an incumbent, another
-  // is not (its decisions - its radius too - may still rule the best out).
+  // is not (its decisions - its radius too - may still rule the best out). A failed fit holds
+  // the choice only while the best is new (it may fail every cycle: a detection on clutter).
   int fewest = comp[0].decisions;
   for (const Competitor& c : comp) fewest = std::min(fewest, c.decisions);
-  const bool best_unknown = comp.size() > 1 && comp[0].decisions < ic.min_decisions;
-  const bool other_unknown =
-      incumbent < 0 && (pending || (comp.size() > 1 && fewest < ic.min_decisions));
+  const bool best_new = comp[0].decisions < ic.min_decisions;
+  const bool best_unknown = comp.size() > 1 && best_new;
+  const bool other_unknown = incumbent < 0 && (undecided_entry || (failed_fit && best_new) ||
+                                               (comp.size() > 1 && fewest < ic.min_decisions));
+  const bool pending = undecided_entry || failed_fit;
   if (best_unknown || other_unknown) {
     s << comp.size() + (pending ? 1 : 0) << (pending ? " or more " : " ") << label
       << " instances in the work zone, not all decided in instances.min_decisions = "

@@ -137,8 +137,9 @@ struct InstanceChoice {
 ///    instances.min_decisions decisions;
 ///  - otherwise none is chosen while the best has fewer than min_decisions decisions and
 ///    others compete - or, without an incumbent, while any other instance has fewer, counting
-///    an entry with fewer whose place still holds points and a fit of this cycle that does not
-///    compete - or while the runner-up is within min_cost_margin (two alike).
+///    an entry with fewer whose place still holds points and (while the best has fewer) a fit
+///    of this cycle that does not compete - or while the runner-up is within min_cost_margin
+///    (two alike).
 /// Deterministic. `label` names the label in the reasons. With no competing fit, index -1 and
 /// an empty reason (the caller explains).
 /// How many of a label's cut-out points lie within `radius` [m] of `origin` [world].
@@ -299,10 +300,12 @@ double profileResidual(const ProfileModel& model, const Eigen::Vector3d& p,
                        bool* ray_hit = nullptr);
 
 /// The change of a residual with normal `grad` ((z, r), profileResidual) at the point q
-/// (relative to the origin) per unit of the fit's 5 parameters: the origin along e1, e2, z and
-/// the axis tilted toward e1, e2 (refineProfile).
-Eigen::Matrix<double, 5, 1> profileJacobian(const Eigen::Vector3d& q, const Eigen::Vector3d& z,
-                                            const Eigen::Vector3d& e1, const Eigen::Vector3d& e2,
+/// (relative to the origin; zc = q . z its coordinate along the axis, u the unit radial
+/// direction of q off the axis) per unit of the fit's 5 parameters: the origin along e1, e2, z
+/// and the axis tilted toward e1, e2 (refineProfile).
+Eigen::Matrix<double, 5, 1> profileJacobian(const Eigen::Vector3d& q, double zc,
+                                            const Eigen::Vector3d& u, const Eigen::Vector3d& e1,
+                                            const Eigen::Vector3d& e2,
                                             const Eigen::Vector2d& grad);
 
 /// The radius offset of the tool joint's OD (radius od_radius in `model`) that best explains the
