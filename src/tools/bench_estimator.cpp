@@ -5,11 +5,12 @@
 //   rosrun drill_pipe_pose bench_estimator BAG [--method ours|thesis_baseline] [--max-cycles N]
 //       [--config estimator.yaml-like params are not read here: defaults + --work-zone]
 //       [--csv errors.csv] [--label NAME] [--skip-camera CAM] [--no-temporal] [--no-tracking]
-//       [--threads N]
+//       [--threads N] [--vote-fraction F]
 //
 // --skip-camera leaves one camera's frames out (a dead camera); --no-temporal turns the temporal
 // filter off; --no-tracking makes every cycle run the full decision (with both, each cycle
-// stands alone); --threads sets EstimatorConfig::threads (default 1; the node's default is 2).
+// stands alone); --threads sets EstimatorConfig::threads (default 1; the node's default is 2);
+// --vote-fraction sets carving.vote_fraction (the node's carving/vote_fraction; default 0.75).
 // Invalid ends are counted by reason.
 //
 // Cycles are formed exactly as the node forms them (FrameSynchronizer), with each frame arriving
@@ -45,7 +46,7 @@ namespace {
 void usage() {
   std::cerr << "usage: bench_estimator BAG [--method ours|thesis_baseline] [--max-cycles N] "
                "[--work-zone x0 y0 z0 x1 y1 z1] [--csv FILE] [--label NAME] [--skip-camera CAM] [--no-temporal] [--no-tracking] "
-               "[--threads N]\n";
+               "[--threads N] [--vote-fraction F]\n";
 }
 
 }  // namespace
@@ -81,6 +82,8 @@ int main(int argc, char** argv) {
       cfg.tracking.enabled = false;
     else if (a == "--threads")
       cfg.threads = std::stoi(next());
+    else if (a == "--vote-fraction")
+      cfg.carving.vote_fraction = std::stod(next());
     else if (a == "--work-zone") {
       for (int k = 0; k < 3; ++k) cfg.work_zone.min[k] = std::stod(next());
       for (int k = 0; k < 3; ++k) cfg.work_zone.max[k] = std::stod(next());

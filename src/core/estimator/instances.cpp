@@ -141,8 +141,8 @@ InstanceChoice chooseInstance(std::vector<InstanceMemory>* memory_ptr,
   if (comp.empty()) return choice;
   // An entry with no fit this cycle whose place still holds the label's points: with enough
   // decisions it competes; with fewer it is a candidate not known yet (its points carved away
-  // this cycle, say). Like an instance fitted this cycle that does not compete (its fit failed
-  // or took the other model), it keeps a newcomer from being taken as the only one.
+  // this cycle, say). It, and an instance fitted this cycle that does not compete (its fit
+  // failed or took the other model), can keep a newcomer from being taken (the rule below).
   bool failed_fit = false, undecided_entry = false;
   for (const InstanceFit& f : fits) failed_fit = failed_fit || !f.competes;
   for (size_t e = 0; e < memory.size(); ++e) {
@@ -154,11 +154,11 @@ InstanceChoice chooseInstance(std::vector<InstanceMemory>* memory_ptr,
   }
   // Another pipe size does not compete.
   int excluded = -1;
-  const InstanceMemory* larger = nullptr;
+  const InstanceMemory* nearer = nullptr;
   for (size_t c = 0; c < comp.size();) {
     if (const InstanceMemory* o = otherSize(memory[comp[c].mem], memory, ic)) {
       excluded = static_cast<int>(comp[c].mem);
-      larger = o;
+      nearer = o;
       comp.erase(comp.begin() + static_cast<std::ptrdiff_t>(c));
     } else {
       ++c;
@@ -169,9 +169,9 @@ InstanceChoice chooseInstance(std::vector<InstanceMemory>* memory_ptr,
     std::ostringstream s;
     s.precision(3);
     s << "the " << label << " instance at " << at(e.origin) << " is another pipe size: its "
-      << "tool joint's radius measures " << (e.radius_offset - larger->radius_offset) * 1e3
-      << " mm off that of the one at " << at(larger->origin) << ", which is nearer the model's "
-      << "(means of " << e.radius_samples << " and " << larger->radius_samples
+      << "tool joint's radius measures " << (e.radius_offset - nearer->radius_offset) * 1e3
+      << " mm off that of the one at " << at(nearer->origin) << ", which is nearer the model's "
+      << "(means of " << e.radius_samples << " and " << nearer->radius_samples
       << " decisions; instances.radius_difference = " << ic.radius_difference * 1e3 << " mm)";
     choice.reason = s.str();
     return choice;

@@ -95,10 +95,11 @@ struct EstimatorConfig {
     /// stages.hpp) and averaged over at least min_decisions of them, differ by more than this
     /// are two pipe sizes: the one further from the model's radius does not compete (0: off).
     /// Relative, because a rig's common depth offset scales every measured radius alike (the
-    /// kinect_v2_field profile measures the right joint up to 3 mm off); so a lone joint of
-    /// another size is not recognised. A 4.5" pipe's 6 1/4" joint is 4.75 mm thinner than a 5"
-    /// pipe's 6 5/8" one: in cluttered (7 m) the two measure -3.1 and +0.9 mm on average, 1 mm
-    /// std per decision; worn joints are at most 1 mm thinner (DESIGN.md).
+    /// kinect_v2_field profile measured the right joint more than 2.5 mm off in some decisions);
+    /// so a lone joint of another size is not recognised. A 4.5" pipe's 6 1/4" joint is 4.75 mm
+    /// thinner than a 5" pipe's 6 5/8" one: in cluttered (7 m) the two measured about -3 and
+    /// +1 mm, 1 mm std per decision (a temporary debug print, README "Measured results"); worn
+    /// joints are at most 1 mm thinner (DESIGN.md).
     double radius_difference = 0.0025;
     double memory_s = 3.0;      ///< [s] an instance not decided for this long is forgotten
   } instances;
