@@ -309,6 +309,7 @@ TEST(EstimatorConfig, RejectsBadKeysByName) {
       {[](EstimatorConfig& c) { c.free_space.min_axial_contrast = std::nan(""); },
        "free_space.min_axial_contrast"},
       {[](EstimatorConfig& c) { c.carving.occlusion_margin = -0.1; }, "carving.occlusion_margin"},
+      {[](EstimatorConfig& c) { c.carving.box_reach = std::nan(""); }, "carving.box_reach"},
       {[](EstimatorConfig& c) { c.profile_fit.support_clearance = -0.01; },
        "profile_fit.support_clearance"},
       {[](EstimatorConfig& c) { c.instances.radius_difference = -0.001; },
@@ -407,6 +408,30 @@ TEST(Carving, RemovesClutterSeenInsideOneCameraBoxOnly) {
   EXPECT_GT(pipe_after, 0.9 * pipe_before);
 }
 
+// Camera k's detector misses the box end in front of it: of its box-end boxes, only the one
+// around `keep`'s projection is left.
+void keepOnlyBoxEndBoxAround(std::vector<CameraInput>* inputs, const std::vector<SimCamera>& cams,
+                             int k, const Eigen::Vector3d& keep) {
+  const PinholeCamera color = PinholeCamera::fromCameraInfo(colorInfo(), "test");
+  Eigen::Vector2d uv;
+  ASSERT_TRUE(color.project(cams[k].T_world_color.inverse() * keep, &uv));
+  auto& boxes = (*inputs)[k].frame.boxes;
+  boxes.erase(std::remove_if(boxes.begin(), boxes.end(),
+                             [&](const DetectionBox& x) {
+                               return x.label == EndLabel::kBoxEnd &&
+                                      !(uv.x() >= x.x_min - 5 && uv.x() <= x.x_max + 5 &&
+                                        uv.y() >= x.y_min - 5 && uv.y() <= x.y_max + 5);
+                             }),
+               boxes.end());
+}
+
+// Points of `pts` on the vertical joint at `a` (within 0.12 m of its axis).
+size_t pointsOnJoint(const std::vector<CloudPoint>& pts, const Eigen::Vector3d& a) {
+  size_t n = 0;
+  for (const auto& p : pts) n += std::hypot(p.p_world.x() - a.x(), p.p_world.y() - a.y()) < 0.12;
+  return n;
+}
+
 TEST(Carving, ACameraBlockedByAnObstacleDoesNotVetoWhatItCannotSee) {
   // Box end A behind two posts as cam1 and cam2 see it; their detector has no box on A, only on
   // another box end B (and on a pin end C beyond A: the depth between B and C is in their crop,
@@ -423,36 +448,52 @@ TEST(Carving, ACameraBlockedByAnObstacleDoesNotVetoWhatItCannotSee) {
     scene.posts.push_back({Eigen::Vector2d(a.x(), a.y()) + 0.8 * dir, 0.3, 0.0, 3.5});
   }
   auto inputs = renderAll(scene, cams, {});
-  const PinholeCamera color = PinholeCamera::fromCameraInfo(colorInfo(), "test");
   for (int k : {0, 1}) {
-    // Keep only the box around B's projection.
-    Eigen::Vector2d uv_b;
-    ASSERT_TRUE(color.project(cams[k].T_world_color.inverse() * b, &uv_b));
-    auto& boxes = inputs[k].frame.boxes;
-    boxes.erase(std::remove_if(boxes.begin(), boxes.end(),
-                               [&](const DetectionBox& x) {
-                                 return x.label == EndLabel::kBoxEnd &&
-                                        !(uv_b.x() >= x.x_min - 5 && uv_b.x() <= x.x_max + 5 &&
-                                          uv_b.y() >= x.y_min - 5 && uv_b.y() <= x.y_max + 5);
-                               }),
-                boxes.end());
-    ASSERT_EQ(boxes.size(), 2u) << cams[k].name;
+    keepOnlyBoxEndBoxAround(&inputs, cams, k, b);
+    ASSERT_EQ(inputs[k].frame.boxes.size(), 2u) << cams[k].name;
+  }
+  EstimatorConfig cfg = testConfig();
+  // B is 1.6 m from A: with box_reach, cam1 and cam2 would not vote on A whatever they see.
+  cfg.carving.box_reach = 0.0;
+  std::vector<CycleCamera> cc;
+  std::array<std::vector<CloudPoint>, kNumEnds> raw;
+  cutOutAll(inputs, cfg, &cc, &raw);
+  const size_t before = pointsOnJoint(raw[0], a);
+  ASSERT_GT(before, 200u);
+  cfg.carving.occlusion_margin = 0.0;
+  EXPECT_LT(pointsOnJoint(carve(raw[0], EndLabel::kBoxEnd, cc, cfg.carving), a), before / 4);
+  cfg.carving.occlusion_margin = EstimatorConfig().carving.occlusion_margin;
+  EXPECT_GT(pointsOnJoint(carve(raw[0], EndLabel::kBoxEnd, cc, cfg.carving), a),
+            before * 9 / 10);
+}
+
+TEST(Carving, ACameraWhoseOnlyBoxIsOnAFarJointDoesNotVetoTheJointItMissed) {
+  // Box end A in full view of all six cameras; the detectors of cam1 and cam2 miss it and see
+  // only another box end B, 1.6 m away. Their boxes on B say nothing about A.
+  Scene scene;
+  const Eigen::Vector3d a(5, 5, 1.2), b(6.0, 3.8, 1.2);
+  scene.joints.push_back(makeJoint(EndLabel::kBoxEnd, poseAt(a, {0, 0, 1})));
+  scene.joints.push_back(makeJoint(EndLabel::kBoxEnd, poseAt(b, {0, 0, 1})));
+  auto cams = ring({5, 5, 1.0}, 5.5, 4.5);
+  auto inputs = renderAll(scene, cams, {});
+  for (int k : {0, 1}) {
+    keepOnlyBoxEndBoxAround(&inputs, cams, k, b);
+    ASSERT_EQ(inputs[k].frame.boxes.size(), 1u) << cams[k].name;
   }
   EstimatorConfig cfg = testConfig();
   std::vector<CycleCamera> cc;
   std::array<std::vector<CloudPoint>, kNumEnds> raw;
   cutOutAll(inputs, cfg, &cc, &raw);
-  auto onA = [&](const std::vector<CloudPoint>& pts) {
-    size_t n = 0;
-    for (const auto& p : pts) n += std::hypot(p.p_world.x() - a.x(), p.p_world.y() - a.y()) < 0.12;
-    return n;
-  };
-  const size_t before = onA(raw[0]);
+  const size_t before = pointsOnJoint(raw[0], a);
   ASSERT_GT(before, 200u);
-  cfg.carving.occlusion_margin = 0.0;
-  EXPECT_LT(onA(carve(raw[0], EndLabel::kBoxEnd, cc, cfg.carving)), before / 4);
-  cfg.carving.occlusion_margin = EstimatorConfig().carving.occlusion_margin;
-  EXPECT_GT(onA(carve(raw[0], EndLabel::kBoxEnd, cc, cfg.carving)), before * 9 / 10);
+  // Every box votes: cam1 and cam2 veto A's points (4 of 6 < 0.75).
+  cfg.carving.box_reach = 0.0;
+  EXPECT_LT(pointsOnJoint(carve(raw[0], EndLabel::kBoxEnd, cc, cfg.carving), a), before / 4);
+  // Only boxes within 0.5 m vote: A is kept; B too (the cameras that see it agree).
+  cfg.carving.box_reach = 0.5;
+  const auto kept = carve(raw[0], EndLabel::kBoxEnd, cc, cfg.carving);
+  EXPECT_GT(pointsOnJoint(kept, a), before * 9 / 10);
+  EXPECT_GT(pointsOnJoint(kept, b), pointsOnJoint(raw[0], b) * 9 / 10);
 }
 
 TEST(Instances, ClustersAreConnectedGroupsLargestFirst) {

@@ -41,6 +41,7 @@ EstimatorConfig loadEstimatorConfig(const ros::NodeHandle& pnh) {
   readNumber(pnh, "carving/vote_fraction", c.carving.vote_fraction, 0.0);
   readNumber(pnh, "carving/margin_px", c.carving.margin_px, 0.0);
   readNumber(pnh, "carving/occlusion_margin", c.carving.occlusion_margin, 0.0);
+  readNumber(pnh, "carving/box_reach", c.carving.box_reach, 0.0);
   readNumber(pnh, "instances/cluster_tolerance", c.instances.cluster_tolerance, 0.0);
   readNumber(pnh, "instances/max_instances", c.instances.max_instances, 1.0);
   readNumber(pnh, "instances/track_gate", c.instances.track_gate, 0.0);
@@ -139,7 +140,8 @@ std::string describeEstimatorConfig(const EstimatorConfig& c) {
     << " m, tube OD " << c.dims.tube_od << " m; cut-out margin " << c.cutout.box_margin_px
     << " px, range " << c.cutout.min_range << ".." << c.cutout.max_range << " m, min confidence "
     << c.cutout.min_confidence << "; carving min cameras " << c.carving.min_cameras
-    << ", vote fraction " << c.carving.vote_fraction;
+    << ", vote fraction " << c.carving.vote_fraction << ", box reach " << c.carving.box_reach
+    << " m";
   return s.str();
 }
 

@@ -5,12 +5,13 @@
 //   rosrun drill_pipe_pose bench_estimator BAG [--method ours|thesis_baseline] [--max-cycles N]
 //       [--config estimator.yaml-like params are not read here: defaults + --work-zone]
 //       [--csv errors.csv] [--label NAME] [--skip-camera CAM] [--no-temporal] [--no-tracking]
-//       [--threads N] [--vote-fraction F]
+//       [--threads N] [--vote-fraction F] [--box-reach M]
 //
 // --skip-camera leaves one camera's frames out (a dead camera); --no-temporal turns the temporal
 // filter off; --no-tracking makes every cycle run the full decision (with both, each cycle
 // stands alone); --threads sets EstimatorConfig::threads (default 1; the node's default is 2);
-// --vote-fraction sets carving.vote_fraction (the node's carving/vote_fraction; default 0.75).
+// --vote-fraction sets carving.vote_fraction (the node's carving/vote_fraction; default 0.75);
+// --box-reach sets carving.box_reach (the node's carving/box_reach; default 0.75 m, 0 = off).
 // Invalid ends are counted by reason.
 //
 // Cycles are formed exactly as the node forms them (FrameSynchronizer), with each frame arriving
@@ -27,6 +28,7 @@
 
 #include <array>
 #include <chrono>
+#include <cmath>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
@@ -46,7 +48,7 @@ namespace {
 void usage() {
   std::cerr << "usage: bench_estimator BAG [--method ours|thesis_baseline] [--max-cycles N] "
                "[--work-zone x0 y0 z0 x1 y1 z1] [--csv FILE] [--label NAME] [--skip-camera CAM] [--no-temporal] [--no-tracking] "
-               "[--threads N] [--vote-fraction F]\n";
+               "[--threads N] [--vote-fraction F] [--box-reach M]\n";
 }
 
 }  // namespace
@@ -66,10 +68,35 @@ int main(int argc, char** argv) {
       }
       return argv[++i];
     };
+    // An option's value as a number; a clear message and exit 2 when it is not one.
+    auto number = [&]() -> double {
+      const std::string v = next();
+      size_t used = 0;
+      double x = 0;
+      try {
+        x = std::stod(v, &used);
+      } catch (const std::exception&) {
+        used = 0;
+      }
+      if (used == 0 || used != v.size()) {
+        std::cerr << "bench_estimator: " << a << " expects a number, got '" << v << "'\n";
+        std::exit(2);
+      }
+      return x;
+    };
+    auto count = [&]() -> long {
+      const double x = number();
+      if (!(x >= 0) || x != std::floor(x) || x > 1e9) {
+        std::cerr << "bench_estimator: " << a << " expects a whole number >= 0, got " << x
+                  << "\n";
+        std::exit(2);
+      }
+      return static_cast<long>(x);
+    };
     if (a == "--method")
       method = next();
     else if (a == "--max-cycles")
-      max_cycles = std::stoul(next());
+      max_cycles = static_cast<size_t>(count());
     else if (a == "--csv")
       csv_path = next();
     else if (a == "--label")
@@ -81,12 +108,14 @@ int main(int argc, char** argv) {
     else if (a == "--no-tracking")
       cfg.tracking.enabled = false;
     else if (a == "--threads")
-      cfg.threads = std::stoi(next());
+      cfg.threads = static_cast<int>(count());
     else if (a == "--vote-fraction")
-      cfg.carving.vote_fraction = std::stod(next());
+      cfg.carving.vote_fraction = number();
+    else if (a == "--box-reach")
+      cfg.carving.box_reach = number();
     else if (a == "--work-zone") {
-      for (int k = 0; k < 3; ++k) cfg.work_zone.min[k] = std::stod(next());
-      for (int k = 0; k < 3; ++k) cfg.work_zone.max[k] = std::stod(next());
+      for (int k = 0; k < 3; ++k) cfg.work_zone.min[k] = number();
+      for (int k = 0; k < 3; ++k) cfg.work_zone.max[k] = number();
     } else if (bag_path.empty())
       bag_path = a;
     else {

@@ -49,6 +49,7 @@ void validateConfig(const EstimatorConfig& c) {
          " must be in [0, 1]");
   non_negative(c.carving.margin_px, "carving.margin_px");
   non_negative(c.carving.occlusion_margin, "carving.occlusion_margin");
+  non_negative(c.carving.box_reach, "carving.box_reach");
   finite_positive(c.instances.cluster_tolerance, "instances.cluster_tolerance");
   at_least(c.instances.max_instances, 1, "instances.max_instances");
   finite_positive(c.instances.track_gate, "instances.track_gate");
@@ -267,6 +268,9 @@ std::vector<CloudPoint> carve(const std::vector<CloudPoint>& points, EndLabel la
     Eigen::Vector3f t;
     float fx, fy, cx, cy, w, h;
     std::vector<const DetectionBox*> boxes;
+    // Where each box's own cut-out points lie in the world (their bounding box): the camera
+    // votes against a point only within carving.box_reach of one of them.
+    std::vector<Eigen::AlignedBox3f> reach;
     // The depth image, to tell whether the camera sees the point at all.
     Eigen::Matrix3f R_d;
     Eigen::Vector3f t_d;
@@ -303,7 +307,37 @@ std::vector<CloudPoint> carve(const std::vector<CloudPoint>& points, EndLabel la
     j.crop = cam.crop;
     for (const auto& b : cam.boxes)
       if (b.label == label) j.boxes.push_back(&b);
+    j.reach.assign(j.boxes.size(), Eigen::AlignedBox3f());
   }
+  const float margin = config.margin_px;
+  auto inBox = [margin](const DetectionBox& b, float u, float v) {
+    return u >= b.x_min - margin && u <= b.x_max + margin && v >= b.y_min - margin &&
+           v <= b.y_max + margin;
+  };
+  // Pixel of a world point in camera j's colour image; false when behind it or outside.
+  auto project = [](const Judge& j, const Eigen::Vector3f& pw, float* u, float* v) {
+    const Eigen::Vector3f pc = j.R * pw + j.t;
+    if (!(pc.z() > 0.0f)) return false;
+    *u = j.fx * pc.x() / pc.z() + j.cx;
+    *v = j.fy * pc.y() / pc.z() + j.cy;
+    return !(*u < -0.5f || *v < -0.5f || *u > j.w - 0.5f || *v > j.h - 0.5f);
+  };
+  const bool reach_on = config.box_reach > 0;
+  if (reach_on)
+    for (const CloudPoint& p : points) {
+      if (p.camera >= cameras.size() || !can_judge[p.camera]) continue;
+      Judge& j = judges[p.camera];
+      float u, v;
+      if (!project(j, p.p_world, &u, &v)) continue;
+      for (size_t k = 0; k < j.boxes.size(); ++k)
+        if (inBox(*j.boxes[k], u, v)) j.reach[k].extend(p.p_world);
+    }
+  const float reach2 = static_cast<float>(config.box_reach * config.box_reach);
+  auto withinReach = [&](const Judge& j, const Eigen::Vector3f& pw) {
+    for (const auto& r : j.reach)
+      if (!r.isEmpty() && r.squaredExteriorDistance(pw) <= reach2) return true;
+    return false;
+  };
   // Something nearer than the point on the camera's ray (its depth pixel, where delivered, is
   // closer by more than occlusion_margin): the camera cannot see the point, and does not vote.
   auto occluded = [&](const Judge& j, const Eigen::Vector3f& pw) {
@@ -316,7 +350,6 @@ std::vector<CloudPoint> carve(const std::vector<CloudPoint>& points, EndLabel la
     const float z = j.depth->depthAt(static_cast<uint32_t>(u), static_cast<uint32_t>(v));
     return z > 0.0f && z < pd.z() - static_cast<float>(config.occlusion_margin);
   };
-  const float margin = config.margin_px;
   std::vector<CloudPoint> kept;
   kept.reserve(points.size());
   for (const CloudPoint& p : points) {
@@ -324,18 +357,15 @@ std::vector<CloudPoint> carve(const std::vector<CloudPoint>& points, EndLabel la
     for (size_t c = 0; c < cameras.size(); ++c) {
       if (c == p.camera || !can_judge[c]) continue;
       const Judge& j = judges[c];
-      const Eigen::Vector3f pc = j.R * p.p_world + j.t;
-      if (!(pc.z() > 0.0f)) continue;
-      const float u = j.fx * pc.x() / pc.z() + j.cx, v = j.fy * pc.y() / pc.z() + j.cy;
-      if (u < -0.5f || v < -0.5f || u > j.w - 0.5f || v > j.h - 0.5f) continue;
+      float u, v;
+      if (!project(j, p.p_world, &u, &v)) continue;
       if (config.occlusion_margin > 0 && occluded(j, p.p_world)) continue;
+      bool in = false;
+      for (const DetectionBox* b : j.boxes) in = in || inBox(*b, u, v);
+      // Outside every box: a vote against only from a detection near the point.
+      if (!in && reach_on && !withinReach(j, p.p_world)) continue;
       ++voters;
-      for (const DetectionBox* b : j.boxes)
-        if (u >= b->x_min - margin && u <= b->x_max + margin && v >= b->y_min - margin &&
-            v <= b->y_max + margin) {
-          ++inside;
-          break;
-        }
+      if (in) ++inside;
     }
     if (voters < config.min_cameras ||
         (inside >= config.min_cameras && inside >= config.vote_fraction * voters))
