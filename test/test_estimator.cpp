@@ -310,6 +310,9 @@ TEST(EstimatorConfig, RejectsBadKeysByName) {
        "free_space.min_axial_contrast"},
       {[](EstimatorConfig& c) { c.carving.occlusion_margin = -0.1; }, "carving.occlusion_margin"},
       {[](EstimatorConfig& c) { c.carving.box_reach = std::nan(""); }, "carving.box_reach"},
+      {[](EstimatorConfig& c) { c.temporal.confirmations = -1; }, "temporal.confirmations"},
+      {[](EstimatorConfig& c) { c.profile_fit.silhouette_min_inlier_fraction = 1.5; },
+       "profile_fit.silhouette_min_inlier_fraction"},
       {[](EstimatorConfig& c) { c.profile_fit.support_clearance = -0.01; },
        "profile_fit.support_clearance"},
       {[](EstimatorConfig& c) { c.instances.radius_difference = -0.001; },
@@ -731,6 +734,56 @@ TEST(ProfileRegistration, RayHitsTheVisibleSurfaceAndUndoesEdgeBias) {
   EXPECT_NEAR(e_ray, -0.01 * std::cos(M_PI / 4), 1e-6);  // behind the face, point-to-plane
 }
 
+TEST(ProfileRegistration, SilhouettePointsSteerOnlyBesideTheSidesOfAWellExplainedFit) {
+  // A vertical box end seen from one camera 4 m away (x toward the joint): exact points where
+  // the camera's rays meet it, and points 4 mm beside its +y side whose rays miss it (what
+  // lateral noise makes of the pixels just outside its silhouette).
+  const ToolJointDimensions dims;
+  const ProfileModel box(EndLabel::kBoxEnd, dims);
+  const double R = dims.tool_joint_od / 2;
+  const Eigen::Vector3d eye(-4.0, 0.0, -0.1);
+  std::vector<Eigen::Vector3f> pts, eyes;
+  for (double b = -0.2; b <= -0.02; b += 0.004)
+    for (double a = -0.1; a <= 0.1; a += 0.004) {
+      const Eigen::Vector3d d = (Eigen::Vector3d(0, a, b) - eye).normalized();
+      double t;
+      Eigen::Vector2d zr, n;
+      if (!box.rayHit(eye, d, 0.0, &t, &zr, &n)) continue;
+      pts.push_back((eye + t * d).cast<float>());
+    }
+  const size_t hits = pts.size();
+  ASSERT_GT(hits, 300u);
+  for (double z = -0.19; z <= -0.03; z += 0.002) pts.emplace_back(0.0f, R + 0.004, z);
+  for (size_t i = hits; i < pts.size(); ++i) {
+    double t;
+    Eigen::Vector2d zr, n;
+    ASSERT_FALSE(box.rayHit(eye, (pts[i].cast<double>() - eye).normalized(), 0.0, &t, &zr, &n));
+  }
+  eyes.assign(pts.size(), eye.cast<float>());
+  EstimatorConfig::ProfileFit cfg;
+  auto fit = [&](const std::vector<Eigen::Vector3f>& p, bool silhouettes) {
+    cfg.silhouette_points = silhouettes;
+    std::vector<Eigen::Vector3f> e(p.size(), eye.cast<float>());
+    const ProfileFitResult f = refineProfile(p, std::vector<float>(p.size(), 0.003f),
+                                             Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(),
+                                             box, cfg, 10, true, &e);
+    EXPECT_TRUE(f.ok);
+    return f;
+  };
+  const ProfileFitResult off = fit(pts, false), on = fit(pts, true);
+  EXPECT_LT(std::abs(off.origin.y()), 1e-4) << "points whose rays miss do not steer when off";
+  EXPECT_GT(on.origin.y(), 2e-4) << "they pull the joint toward them when on";
+  // They add nothing to the reported certainty: the fit does not look surer with them.
+  for (int k = 0; k < 5; ++k) EXPECT_GE(on.covariance(k, k), 0.95 * off.covariance(k, k)) << k;
+  // A fit that explains less than silhouette_min_inlier_fraction of its points (here a cloud
+  // of stray points 5 cm off the joint) is not steered by them.
+  std::vector<Eigen::Vector3f> stray = pts;
+  for (size_t i = 0; i < hits; ++i) stray.push_back(pts[i] + Eigen::Vector3f(-0.05f, 0, 0));
+  EXPECT_LT(std::abs(fit(stray, true).origin.y()), 1e-4);
+  cfg.silhouette_min_inlier_fraction = 0.4;  // the stray points then no longer stop them
+  EXPECT_GT(fit(stray, true).origin.y(), 2e-4);
+}
+
 TEST(ProfileRegistration, RadiusCheckMeasuresAThinnerJointWhateverThePose) {
   // Points on the tool joint's OD (end frame z in [-0.25, -0.03]) as four cameras around it see
   // them, 3 mm depth noise along their rays. radiusOffset recovers the rendered radius minus
@@ -779,7 +832,7 @@ TEST(ProfileRegistration, RadiusCheckMeasuresAThinnerJointWhateverThePose) {
   EXPECT_FALSE(radiusOffset(box, R, origin, z, none, none, {}).ok);
 }
 
-TEST(TemporalFilter, SmoothsAStaticEndFollowsAMovingOneWithoutLagAndRestartsOnJumps) {
+TEST(TemporalFilter, SmoothsAStaticEndAndFollowsAMovingOneWithoutLag) {
   const uint32_t seed = 17;
   std::mt19937 rng(seed);
   std::normal_distribution<double> n01(0.0, 1.0);
@@ -821,20 +874,71 @@ TEST(TemporalFilter, SmoothsAStaticEndFollowsAMovingOneWithoutLagAndRestartsOnJu
   run(Eigen::Vector3d(0, 0, -0.2), &err, &along, &tilt, &raw);
   EXPECT_LT(std::abs(along), 0.001) << "lag along the motion, seed " << seed;
   EXPECT_LT(err, 0.6 * raw) << "seed " << seed;
-  // A jump of 0.5 m restarts the filter: the output is the new measurement.
-  EndPoseFilter f;
-  for (int k = 0; k < 30; ++k) {
-    Eigen::Vector3d o(1, 2, 3), z = Eigen::Vector3d::UnitZ();
+}
+
+TEST(TemporalFilter, AWildFitIsHeldAndAJumpIsConfirmedByTheNextMeasurement) {
+  const double sigma = 0.005, tilt_sigma = 0.02;
+  Eigen::Matrix<double, 6, 6> C = Eigen::Matrix<double, 6, 6>::Zero();
+  C.topLeftCorner<3, 3>() = Eigen::Matrix3d::Identity() * sigma * sigma;
+  C.bottomRightCorner<3, 3>() = Eigen::Matrix3d::Identity() * tilt_sigma * tilt_sigma;
+  const int64_t period = 33333333;  // 30 Hz
+  const Eigen::Vector3d at(1, 2, 3), tilted = Eigen::Vector3d(0.3, 0, 1).normalized();
+  auto feed = [&](EndPoseFilter& f, int k, Eigen::Vector3d o, Eigen::Vector3d z,
+                  Eigen::Vector3d* out_o = nullptr, Eigen::Vector3d* out_z = nullptr) {
     Eigen::Matrix<double, 6, 6> cov = C;
-    f.update(k * period, &o, &z, &cov);
+    const FilterUpdate u = f.update(k * period, &o, &z, &cov);
+    if (out_o) *out_o = o;
+    if (out_z) *out_z = z;
+    return u;
+  };
+  auto settled = [&](const EstimatorConfig::Temporal& cfg) {
+    EndPoseFilter f(cfg);
+    EXPECT_EQ(feed(f, 0, at, Eigen::Vector3d::UnitZ()), FilterUpdate::kRestarted);
+    for (int k = 1; k < 30; ++k)
+      EXPECT_EQ(feed(f, k, at, Eigen::Vector3d::UnitZ()), FilterUpdate::kFiltered) << k;
+    return f;
+  };
+  EstimatorConfig::Temporal cfg;
+  ASSERT_EQ(cfg.confirmations, 1);
+  {
+    // One fit 17 deg off: held (not to be published), and the next normal one is filtered as if
+    // it had not been there.
+    EndPoseFilter f = settled(cfg);
+    Eigen::Vector3d o, z;
+    EXPECT_EQ(feed(f, 30, at, tilted, &o, &z), FilterUpdate::kHeld);
+    EXPECT_NEAR(z.dot(tilted), 1.0, 1e-12) << "a held measurement is returned unchanged";
+    EXPECT_GT(f.lastTilt(), f.lastTiltGate());
+    EXPECT_EQ(feed(f, 31, at, Eigen::Vector3d::UnitZ(), &o, &z), FilterUpdate::kFiltered);
+    EXPECT_GT(z.z(), std::cos(0.001)) << "the held fit did not pull the axis";
+    // Two wild fits that disagree with each other confirm nothing.
+    EXPECT_EQ(feed(f, 32, Eigen::Vector3d(1.5, 2, 3), Eigen::Vector3d::UnitZ()),
+              FilterUpdate::kHeld);
+    EXPECT_EQ(feed(f, 33, at, tilted), FilterUpdate::kHeld);
   }
-  Eigen::Vector3d o(1.5, 2, 3), z = Eigen::Vector3d::UnitZ();
-  Eigen::Matrix<double, 6, 6> cov = C;
-  EXPECT_FALSE(f.update(30 * period, &o, &z, &cov));
-  EXPECT_NEAR(o.x(), 1.5, 1e-12);
-  // Time going backwards (a looped bag) restarts it too.
-  o = Eigen::Vector3d(1.5, 2, 3);
-  EXPECT_FALSE(f.update(0, &o, &z, &cov));
+  {
+    // A jump of 0.5 m: held once, then confirmed by the next measurement, from which the
+    // filter restarts.
+    EndPoseFilter f = settled(cfg);
+    Eigen::Vector3d o;
+    EXPECT_EQ(feed(f, 30, Eigen::Vector3d(1.5, 2, 3), Eigen::Vector3d::UnitZ()),
+              FilterUpdate::kHeld);
+    EXPECT_EQ(feed(f, 31, Eigen::Vector3d(1.502, 2, 3), Eigen::Vector3d::UnitZ(), &o),
+              FilterUpdate::kRestarted);
+    EXPECT_NEAR(o.x(), 1.502, 1e-12);
+    EXPECT_EQ(feed(f, 32, Eigen::Vector3d(1.5, 2, 3), Eigen::Vector3d::UnitZ()),
+              FilterUpdate::kFiltered);
+    // Time going backwards (a looped bag) restarts it at once.
+    EXPECT_EQ(feed(f, 0, at, Eigen::Vector3d::UnitZ()), FilterUpdate::kRestarted);
+  }
+  {
+    // confirmations = 0: the jump restarts the filter at once.
+    cfg.confirmations = 0;
+    EndPoseFilter f = settled(cfg);
+    Eigen::Vector3d o;
+    EXPECT_EQ(feed(f, 30, Eigen::Vector3d(1.5, 2, 3), Eigen::Vector3d::UnitZ(), &o),
+              FilterUpdate::kRestarted);
+    EXPECT_NEAR(o.x(), 1.5, 1e-12);
+  }
 }
 
 TEST(SupportPlane, RemovesAFloorRingButNotTheJointsEndFace) {

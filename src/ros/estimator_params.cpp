@@ -77,6 +77,9 @@ EstimatorConfig loadEstimatorConfig(const ros::NodeHandle& pnh) {
   readNumber(pnh, "profile_fit/hypothesis_iterations", c.profile_fit.hypothesis_iterations, 1.0);
   readNumber(pnh, "profile_fit/max_rms", c.profile_fit.max_rms, 0.0);
   readNumber(pnh, "profile_fit/min_inlier_fraction", c.profile_fit.min_inlier_fraction, 0.0);
+  readParam(pnh, "profile_fit/silhouette_points", c.profile_fit.silhouette_points);
+  readNumber(pnh, "profile_fit/silhouette_min_inlier_fraction",
+             c.profile_fit.silhouette_min_inlier_fraction, 0.0);
   readNumber(pnh, "profile_fit/max_axial_std", c.profile_fit.max_axial_std, 0.0);
   readNumber(pnh, "profile_fit/max_tilt_std", c.profile_fit.max_tilt_std, 0.0);
 
@@ -105,6 +108,7 @@ EstimatorConfig loadEstimatorConfig(const ros::NodeHandle& pnh) {
   readNumber(pnh, "temporal/tilt_rate_density", c.temporal.tilt_rate_density, 0.0);
   readNumber(pnh, "temporal/max_speed", c.temporal.max_speed, 0.0);
   readNumber(pnh, "temporal/gate_sigma", c.temporal.gate_sigma, 0.0);
+  readNumber(pnh, "temporal/confirmations", c.temporal.confirmations, 0.0);
   readNumber(pnh, "temporal/max_gap", c.temporal.max_gap, 0.0);
   readParam(pnh, "tracking/enabled", c.tracking.enabled);
   readNumber(pnh, "tracking/redecide_every", c.tracking.redecide_every, 1.0);

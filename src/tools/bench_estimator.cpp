@@ -5,13 +5,16 @@
 //   rosrun drill_pipe_pose bench_estimator BAG [--method ours|thesis_baseline] [--max-cycles N]
 //       [--config estimator.yaml-like params are not read here: defaults + --work-zone]
 //       [--csv errors.csv] [--label NAME] [--skip-camera CAM] [--no-temporal] [--no-tracking]
-//       [--threads N] [--vote-fraction F] [--box-reach M]
+//       [--threads N] [--vote-fraction F] [--box-reach M] [--confirmations N]
+//       [--no-silhouette-points]
 //
 // --skip-camera leaves one camera's frames out (a dead camera); --no-temporal turns the temporal
 // filter off; --no-tracking makes every cycle run the full decision (with both, each cycle
 // stands alone); --threads sets EstimatorConfig::threads (default 1; the node's default is 2);
 // --vote-fraction sets carving.vote_fraction (the node's carving/vote_fraction; default 0.75);
-// --box-reach sets carving.box_reach (the node's carving/box_reach; default 0.75 m, 0 = off).
+// --box-reach sets carving.box_reach (the node's carving/box_reach; default 0.5 m, 0 = off);
+// --confirmations sets temporal.confirmations (default 1, 0 = a jump restarts the filter at once);
+// --no-silhouette-points sets profile_fit.silhouette_points false.
 // Invalid ends are counted by reason.
 //
 // Cycles are formed exactly as the node forms them (FrameSynchronizer), with each frame arriving
@@ -48,7 +51,8 @@ namespace {
 void usage() {
   std::cerr << "usage: bench_estimator BAG [--method ours|thesis_baseline] [--max-cycles N] "
                "[--work-zone x0 y0 z0 x1 y1 z1] [--csv FILE] [--label NAME] [--skip-camera CAM] [--no-temporal] [--no-tracking] "
-               "[--threads N] [--vote-fraction F] [--box-reach M]\n";
+               "[--threads N] [--vote-fraction F] [--box-reach M] [--confirmations N] "
+               "[--no-silhouette-points]\n";
 }
 
 }  // namespace
@@ -113,6 +117,10 @@ int main(int argc, char** argv) {
       cfg.carving.vote_fraction = number();
     else if (a == "--box-reach")
       cfg.carving.box_reach = number();
+    else if (a == "--confirmations")
+      cfg.temporal.confirmations = static_cast<int>(count());
+    else if (a == "--no-silhouette-points")
+      cfg.profile_fit.silhouette_points = false;
     else if (a == "--work-zone") {
       for (int k = 0; k < 3; ++k) cfg.work_zone.min[k] = number();
       for (int k = 0; k < 3; ++k) cfg.work_zone.max[k] = number();

@@ -77,6 +77,10 @@ void validateConfig(const EstimatorConfig& c) {
   at_least(c.profile_fit.search_points, 20, "profile_fit.search_points");
   finite_positive(c.profile_fit.max_rms, "profile_fit.max_rms");
   non_negative(c.profile_fit.min_inlier_fraction, "profile_fit.min_inlier_fraction");
+  if (!(c.profile_fit.silhouette_min_inlier_fraction >= 0.0 &&
+        c.profile_fit.silhouette_min_inlier_fraction <= 1.0))
+    fail("estimator config: profile_fit.silhouette_min_inlier_fraction = ",
+         c.profile_fit.silhouette_min_inlier_fraction, " must be in [0, 1]");
   non_negative(c.cutout.edge_jump, "cutout.edge_jump");
   finite_positive(c.profile_fit.max_axial_std, "profile_fit.max_axial_std");
   finite_positive(c.profile_fit.max_tilt_std, "profile_fit.max_tilt_std");
@@ -105,6 +109,7 @@ void validateConfig(const EstimatorConfig& c) {
   finite_positive(c.temporal.max_speed, "temporal.max_speed");
   finite_positive(c.temporal.gate_sigma, "temporal.gate_sigma");
   finite_positive(c.temporal.max_gap, "temporal.max_gap");
+  at_least(c.temporal.confirmations, 0, "temporal.confirmations");
   at_least(c.threads, 1, "threads");
   at_least(c.tracking.redecide_every, 1, "tracking.redecide_every");
   finite_positive(c.tracking.max_gap, "tracking.max_gap");

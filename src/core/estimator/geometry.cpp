@@ -656,6 +656,9 @@ double axialSearch(const std::vector<double>& ts, const std::vector<double>& rs,
   return best_s;
 }
 
+/// The radial component of the closest model surface's normal above which a pixel whose ray
+/// misses the model counts as one of the joint's side silhouette (within 18 deg of radial).
+constexpr double kSilhouetteNormal = 0.9;
 }  // namespace
 
 ProfileFitResult refineProfile(const std::vector<Eigen::Vector3f>& points,
@@ -679,11 +682,15 @@ ProfileFitResult refineProfile(const std::vector<Eigen::Vector3f>& points,
   res.inlier_mask.assign(points.size(), 0);
   double cost = 0, ss = 0;
   size_t inl = 0;
+  // Silhouette points (below) steer an iteration only when the previous one explained at least
+  // config.silhouette_min_inlier_fraction of the points.
+  bool silhouettes = false, next_silhouettes = false;
   for (int it = 0; it < iterations + 1; ++it) {
+    silhouettes = next_silhouettes;
     const bool last = it == iterations;
     Eigen::Vector3d e1, e2;
     orthoBasis(z, &e1, &e2);
-    Eigen::Matrix<double, 5, 5> H = Eigen::Matrix<double, 5, 5>::Zero();
+    Eigen::Matrix<double, 5, 5> H = Eigen::Matrix<double, 5, 5>::Zero(), H_cov = H;
     Eigen::Matrix<double, 5, 1> g = Eigen::Matrix<double, 5, 1>::Zero();
     chi2 = 0;
     n_used = 0;
@@ -711,9 +718,16 @@ ProfileFitResult refineProfile(const std::vector<Eigen::Vector3f>& points,
       const double rc = qp.norm();
       if (rc < 1e-9) continue;
       if (d > T) continue;
-      // A ray that misses the model: a silhouette pixel (lateral noise, mixed pixels) whose
-      // closest model point is not what it measured; it does not steer the fit.
-      if (eyes && !hit) continue;
+      // A ray that misses the model: a pixel beyond the joint's silhouette as the model sees it.
+      // Where its closest model surface is the outer cylinder facing it (the joint's sides),
+      // it is a side pixel that lateral noise (the depth of a neighbouring pixel) moved
+      // outward: it counts at that distance, as its twin moved inward (whose ray meets the
+      // model) does. Leaving these out while their twins count pulled the model away from each
+      // camera (thesis_angled: 0.75 deg, 5.3 mm). Others (beyond the end face or a shoulder,
+      // into the bore) do not steer the fit, nor do any while the fit explains few of its
+      // points (dark steel: its silhouette's mixed pixels would pull it).
+      const bool silhouette = eyes && !hit;
+      if (silhouette && !(silhouettes && gr.y() >= kSilhouetteNormal)) continue;
       const double sigma = sigmas[i];
       const double k = config.huber * sigma;
       const double w = (d <= k ? 1.0 : k / d) / (sigma * sigma);
@@ -722,10 +736,17 @@ ProfileFitResult refineProfile(const std::vector<Eigen::Vector3f>& points,
       if (!axial_info) J(2) = 0.0;
       H += w * J * J.transpose();
       g += w * J * e;
+      // A silhouette point's closest-point distance is an approximation: it steers the fit but
+      // adds nothing to the reported certainty.
+      if (silhouette) continue;
+      H_cov += w * J * J.transpose();
       chi2 += e * e / (sigma * sigma);
       ++n_used;
     }
-    H_last = H;
+    next_silhouettes = config.silhouette_points &&
+                       static_cast<double>(inl) >=
+                           config.silhouette_min_inlier_fraction * static_cast<double>(pts.size());
+    H_last = H_cov;
     res.origin = o;
     res.z = z;
     if (last || n_used < 10) break;
@@ -747,7 +768,7 @@ ProfileFitResult refineProfile(const std::vector<Eigen::Vector3f>& points,
     o += scale * (delta[0] * e1 + delta[1] * e2 + delta[2] * z);
     z = (z + scale * (delta[3] * e1 + delta[4] * e2)).normalized();
     // Converged: steps far below the noise (0.1 mm, 0.1 mrad).
-    if (step_t < 1e-4 && step_r < 1e-4) {
+    if (step_t < 1e-4 && step_r < 1e-4 && next_silhouettes == silhouettes) {
       it = iterations - 1;  // one more pass to evaluate H at the optimum
     }
   }

@@ -851,7 +851,24 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
     }
     if (config_.temporal.enabled) {
       Eigen::Vector3d o = e.T_world_end.translation(), z = e.T_world_end.linear().col(2);
-      impl_->filters[slot].update(cycle_stamp_ns, &o, &z, &e.covariance);
+      EndPoseFilter& filter = impl_->filters[slot];
+      if (filter.update(cycle_stamp_ns, &o, &z, &e.covariance) == FilterUpdate::kHeld) {
+        // One fit far from the end's filtered track: a wild fit, or the pipe moved. Not
+        // published until the next agrees (temporal.confirmations).
+        std::ostringstream s;
+        s.precision(3);
+        s << "held: this cycle's pose lies " << filter.lastPositionSigma()
+          << " sigma and " << filter.lastTilt() * 180 / M_PI << " deg (gate "
+          << filter.lastTiltGate() * 180 / M_PI << ") from the end's filtered track "
+          << "(temporal.gate_sigma = " << config_.temporal.gate_sigma
+          << "); published when temporal.confirmations = " << config_.temporal.confirmations
+          << " more agree";
+        const EndLabel label = e.label;
+        e = EndEstimate();
+        e.label = label;
+        e.reason = s.str();
+        continue;
+      }
       e.T_world_end = canonicalPose(o, z);
     }
     if (!used.empty())

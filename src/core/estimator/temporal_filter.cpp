@@ -14,8 +14,8 @@ double tiltVariance(const Eigen::Matrix3d& rot_cov, const Eigen::Vector3d& axis)
 }
 }  // namespace
 
-bool EndPoseFilter::update(int64_t stamp_ns, Eigen::Vector3d* origin, Eigen::Vector3d* axis,
-                           Eigen::Matrix<double, 6, 6>* covariance) {
+FilterUpdate EndPoseFilter::update(int64_t stamp_ns, Eigen::Vector3d* origin,
+                                   Eigen::Vector3d* axis, Eigen::Matrix<double, 6, 6>* covariance) {
   const Eigen::Matrix3d R_pos = covariance->topLeftCorner<3, 3>();
   const double r_tilt = tiltVariance(covariance->bottomRightCorner<3, 3>(), *axis);
   const double dt = (stamp_ns - stamp_ns_) * 1e-9;
@@ -30,7 +30,8 @@ bool EndPoseFilter::update(int64_t stamp_ns, Eigen::Vector3d* origin, Eigen::Vec
         Eigen::Matrix3d::Identity() * config_.max_speed * config_.max_speed;
     axis_ = axis->normalized();
     axis_var_ = r_tilt;
-    return false;
+    held_ = 0;
+    return FilterUpdate::kRestarted;
   };
   if (!initialised_ || dt <= 0.0 || dt > config_.max_gap) return restart();
 
@@ -55,7 +56,36 @@ bool EndPoseFilter::update(int64_t stamp_ns, Eigen::Vector3d* origin, Eigen::Vec
   const double cos_a = std::clamp(meas_axis.dot(axis_), -1.0, 1.0);
   const double tilt = std::acos(cos_a);
   const double tilt_gate = config_.gate_sigma * std::sqrt(axis_var_pred + r_tilt);
-  if (!(d2 <= config_.gate_sigma * config_.gate_sigma) || tilt > tilt_gate) return restart();
+  last_sigma_ = std::sqrt(std::max(0.0, d2));
+  last_tilt_ = tilt;
+  last_tilt_gate_ = tilt_gate;
+  if (!(d2 <= config_.gate_sigma * config_.gate_sigma) || tilt > tilt_gate) {
+    if (config_.confirmations <= 0) return restart();
+    // Outside the gate: a wild fit, or the pipe moved. Held until `confirmations` more
+    // measurements agree with the held one (within the gate of both covariances, the position
+    // allowed max_speed of motion in between); then the filter restarts from the last.
+    bool agrees = false;
+    const double dt_held = (stamp_ns - held_stamp_ns_) * 1e-9;
+    if (held_ > 0 && dt_held > 0.0 && dt_held <= config_.max_gap) {
+      const Eigen::Vector3d dp = *origin - held_origin_;
+      const double motion = config_.max_speed * dt_held;
+      const Eigen::Matrix3d Sh =
+          held_pos_cov_ + R_pos + motion * motion * Eigen::Matrix3d::Identity();
+      const double dh2 = dp.dot(Sh.ldlt().solve(dp));
+      const double th = std::acos(std::clamp(meas_axis.dot(held_axis_), -1.0, 1.0));
+      agrees = dh2 <= config_.gate_sigma * config_.gate_sigma &&
+               th <= config_.gate_sigma * std::sqrt(held_tilt_var_ + r_tilt);
+    }
+    held_ = agrees ? held_ + 1 : 1;
+    if (held_ > config_.confirmations) return restart();
+    held_stamp_ns_ = stamp_ns;
+    held_origin_ = *origin;
+    held_axis_ = meas_axis;
+    held_pos_cov_ = R_pos;
+    held_tilt_var_ = r_tilt;
+    return FilterUpdate::kHeld;
+  }
+  held_ = 0;
 
   // Update.
   Eigen::Matrix<double, 6, 3> H = Eigen::Matrix<double, 6, 3>::Zero();
@@ -79,7 +109,7 @@ bool EndPoseFilter::update(int64_t stamp_ns, Eigen::Vector3d* origin, Eigen::Vec
   covariance->bottomRightCorner<3, 3>() =
       axis_var_ * (Eigen::Matrix3d::Identity() - axis_ * axis_.transpose()) +
       roll_var * axis_ * axis_.transpose();
-  return true;
+  return FilterUpdate::kFiltered;
 }
 
 }  // namespace drill_pipe_pose

@@ -141,6 +141,12 @@ struct EstimatorConfig {
   /// Registration against the model profile (body of revolution, roll-free: 5 DoF).
   struct ProfileFit {
     double search_step = 0.003;  ///< [m] 1-DoF axial search step (coarse pass: 2.5 steps)
+    /// Pixels whose camera ray misses the model next to the joint's sides (lateral noise moved
+    /// them outward) count in the refinement at their closest-point distance (refineProfile)...
+    bool silhouette_points = true;
+    /// ...while the fit explains at least this fraction of its points (dark steel's fits explain
+    /// 40-70 %: the mixed pixels at its silhouette tilted a box-end fit outside its 3-sigma).
+    double silhouette_min_inlier_fraction = 0.7;
     double truncation = 0.025;   ///< [m] robust cost: residuals beyond this cost as much as this
     /// [m] only the part of the tong within (tong length - wear_margin) of the shoulder is trusted
     /// in the refinement (worn joints are up to 20 mm shorter than nominal).
@@ -242,8 +248,11 @@ struct EstimatorConfig {
     double tilt_rate_density = 0.0001;
     /// [m/s] prior velocity std at a (re)start.
     double max_speed = 1.0;
-    /// A measurement further than this many sigma from the prediction restarts the filter.
+    /// A measurement further than this many sigma from the prediction (position, or tilt)...
     double gate_sigma = 4.0;
+    /// ...is not published until this many more measurements agree with it (a real move: the
+    /// filter restarts from the last); 0 = the filter restarts from it at once.
+    int confirmations = 1;
     /// [s] a longer gap between measurements restarts the filter.
     double max_gap = 0.5;
   } temporal;
