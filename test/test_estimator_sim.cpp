@@ -6,8 +6,6 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <iostream>
-#include <map>
 #include <string>
 
 #include "drill_pipe_pose/core/depth_crop.hpp"
@@ -212,55 +210,20 @@ TEST(EstimatorOnSimulator, CroppedDepthGivesTheSamePosesAsFull) {
   EXPECT_LT(cropped_px * 10, full_px) << "the crop should send a small part of the depth";
 }
 
-// The issue-4 targets on thesis_vertical (disabled until met; run with
-// --gtest_also_run_disabled_tests to see the figures).
-TEST(EstimatorOnSimulator, DISABLED_ThesisVerticalTargets) {
-  const SequenceStats s = runScenario("thesis_vertical", "kinect_v2_calibrated", 7, 30);
-  print("thesis_vertical", s);
+// The issue's error targets on thesis_vertical over a 10 s run on another seed than
+// scripts/bench's (7, not 1): mean 3D error at most 5 mm, spread of each coordinate at most
+// 3 mm, mean axis error at most 0.5 deg, for each end. Its share of cycles within 1 cm / 1 deg
+// is printed, not asserted: from a cold start at 7 m the box end misses its first cycles
+// (README, "Measured results").
+TEST(EstimatorOnSimulator, ThesisVerticalErrorTargetsHoldOnASecondSeed) {
+  const SequenceStats s = runScenario("thesis_vertical", "kinect_v2_calibrated", 7, 300);
+  print("thesis_vertical (seed 7)", s);
   for (int l = 0; l < kNumEnds; ++l) {
     const ErrorStats& st = s.stats[l];
-    SCOPED_TRACE(labelName(static_cast<EndLabel>(l)));
+    SCOPED_TRACE(std::string(labelName(static_cast<EndLabel>(l))) + ", seed 7");
+    EXPECT_GE(st.estimates, 295u);
     EXPECT_LT(st.mean_position_error, 0.005);
     EXPECT_LT(st.std_position.maxCoeff(), 0.003);
     EXPECT_LT(st.mean_axis_angle, 0.5 * kDeg);
-  }
-}
-
-TEST(EstimatorOnSimulator, DISABLED_DumpProfile) {
-  auto simulator = makeSimulator("thesis_vertical", 7);
-  EstimatorConfig cfg;
-  cfg.work_zone.min = simulator->workZone().min;
-  cfg.work_zone.max = simulator->workZone().max;
-  PoseEstimator est(cfg);
-  std::vector<CameraInput> inputs;
-  for (size_t i = 0; i < simulator->numCameras(); ++i) {
-    CameraInput in;
-    in.frame = simulator->render(i, simulator->captureTime(i, 0), 0).sensor_frame;
-    for (auto& b : in.frame.boxes)
-      std::printf("%s box %s conf %.2f (%.0f %.0f)-(%.0f %.0f)\n", in.frame.camera.c_str(),
-                  labelName(b.label), b.confidence, b.x_min, b.y_min, b.x_max, b.y_max);
-    in.T_color_depth = simulator->T_link_depth(i);
-    in.T_world_depth = simulator->publishedT_world_link(i) * simulator->T_link_depth(i);
-    inputs.push_back(std::move(in));
-  }
-  const CycleResult r = est.process(inputs);
-  for (const auto& truth : simulator->groundTruth(0)) {
-    const int l = static_cast<int>(truth.label);
-    std::printf("== %s est %s / truth %s\n", labelName(truth.label), "", "");
-    std::cout << r.ends[l].T_world_end.translation().transpose() << " | "
-              << truth.T_world_end.translation().transpose() << "\n";
-    const Eigen::Isometry3d Tinv = truth.T_world_end.inverse();
-    std::map<int, std::vector<double>> bins;
-    for (const auto& p : r.fused) {
-      const Eigen::Vector3d q = Tinv * p.cast<double>();
-      const double rr = std::hypot(q.x(), q.y());
-      if (rr > 0.4) continue;
-      bins[static_cast<int>(std::floor(q.z() / 0.02))].push_back(rr);
-    }
-    for (auto& [b, v] : bins) {
-      std::sort(v.begin(), v.end());
-      std::printf("z %+.2f n %3zu r p10 %.3f med %.3f p90 %.3f\n", b * 0.02, v.size(),
-                  v[v.size() / 10], v[v.size() / 2], v[v.size() * 9 / 10]);
-    }
   }
 }
