@@ -563,6 +563,25 @@ TEST(SimScenario, BadFilesNameFileKeyAndExpectation) {
   EXPECT_THROW(sensorProfile("kinect_v3"), InputError);
 }
 
+TEST(SimRender, OneSensorEffectSwitchesOffByName) {
+  SensorEffects fx = sensorProfile("kinect_v2_calibrated");
+  ASSERT_TRUE(fx.lateral_noise && fx.axial_noise && fx.depth_offset);
+  switchOffEffect(&fx, "lateral_noise");
+  EXPECT_FALSE(fx.lateral_noise);
+  EXPECT_TRUE(fx.axial_noise && fx.depth_offset && fx.flying_pixels);
+  switchOffEffect(&fx, "depth_offset");
+  EXPECT_FALSE(fx.depth_offset);
+  try {
+    switchOffEffect(&fx, "lateral");
+    FAIL() << "an unknown effect must be refused";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("\"lateral\" (expected one of axial_noise, "
+                                         "lateral_noise"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(SimRender, SpeedReport) {
   const RigCalibration rig = loadRigCalibration(kRig);
   for (const char* name : {"thesis_vertical", "moving", "cluttered"}) {

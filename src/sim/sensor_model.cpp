@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include "drill_pipe_pose/core/errors.hpp"
 #include "drill_pipe_pose/sim/yaml_util.hpp"
@@ -72,6 +73,32 @@ SensorEffects sensorProfile(const std::string& name) {
   }
   fail("sensor profile \"", name,
        "\" is unknown (expected ideal, kinect_v2_calibrated or kinect_v2_field)");
+}
+
+void switchOffEffect(SensorEffects* effects, const std::string& name) {
+  const std::pair<const char*, bool SensorEffects::*> fields[] = {
+      {"axial_noise", &SensorEffects::axial_noise},
+      {"lateral_noise", &SensorEffects::lateral_noise},
+      {"quantisation", &SensorEffects::quantisation},
+      {"dropout", &SensorEffects::dropout},
+      {"flying_pixels", &SensorEffects::flying_pixels},
+      {"depth_offset", &SensorEffects::depth_offset},
+      {"interference", &SensorEffects::interference},
+      {"unsynchronised", &SensorEffects::unsynchronised},
+      {"calibration_error", &SensorEffects::calibration_error},
+      {"wear", &SensorEffects::wear},
+      {"mud", &SensorEffects::mud},
+      {"color_noise", &SensorEffects::color_noise},
+  };
+  std::string names;
+  for (const auto& [n, field] : fields) {
+    if (name == n) {
+      effects->*field = false;
+      return;
+    }
+    names += names.empty() ? n : std::string(", ") + n;
+  }
+  fail("unknown sensor effect \"", name, "\" (expected one of ", names, ")");
 }
 
 double axialNoiseSigma(double z, double theta, double max_incidence_rad) {

@@ -3,12 +3,16 @@
 //   rosrun drill_pipe_pose simulate_bag --scene config/scenes/thesis_vertical.yaml --out X.bag
 //       [--rig config/rigs/thesis_lab.yaml] [--duration 10] [--start 0] [--profile NAME]
 //       [--seed 1] [--no-detection] [--color] [--crop] [--sensors config/sensors] [--quiet]
+//       [--effect-off EFFECT]...
 //
 // --crop sends each SensorFrame's depth cropped to its boxes' frustum (roi), as a bandwidth-saving
 // sensor node does: bags are ~100x smaller and the estimator's poses are the same.
 // The bag (LZ4) carries what the estimator needs: <cam>/sensor_frame (SensorFrame, simulated
 // detections unless --no-detection), /tf_static (latched) and /ground_truth/<end>. --color adds
 // the kinect2_bridge-style camera topics (QHD colour ~1.5 MB per frame: keep such bags short).
+// --effect-off switches one of the profile's sensor effects off (repeatable; the names are
+// SensorEffects' fields: axial_noise, lateral_noise, depth_offset, flying_pixels, ...), to
+// measure what each costs the estimator.
 #include <drill_pipe_pose/SensorFrame.h>
 #include <ros/package.h>
 #include <rosbag/bag.h>
@@ -30,7 +34,8 @@ namespace {
 void usage() {
   std::cerr << "usage: simulate_bag --scene SCENE.yaml --out OUT.bag [--rig RIG.yaml] "
                "[--duration S] [--start S] [--profile ideal|kinect_v2_calibrated|kinect_v2_field] "
-               "[--seed N] [--no-detection] [--color] [--crop] [--sensors DIR] [--quiet]\n";
+               "[--seed N] [--no-detection] [--color] [--crop] [--sensors DIR] [--quiet] "
+               "[--effect-off EFFECT]...\n";
 }
 
 void progress(double done, double total, double rate, bool quiet) {
@@ -49,6 +54,7 @@ int main(int argc, char** argv) {
   std::string scene, out, rig = pkg + "/config/rigs/thesis_lab.yaml";
   double duration = 10.0, start = 0.0;
   bool quiet = false, crop = false;
+  std::vector<std::string> effects_off;
   sim::SimulatorOptions opt;
   opt.sensor_config_dir = pkg + "/config/sensors";
   opt.stamp_origin_ns = 1000000000;  // t = 0 at ROS time 1 s (0 means "latest" to tf2)
@@ -73,6 +79,8 @@ int main(int argc, char** argv) {
       start = std::stod(next());
     else if (a == "--profile")
       opt.profile = next();
+    else if (a == "--effect-off")
+      effects_off.push_back(next());
     else if (a == "--seed")
       opt.seed = static_cast<uint32_t>(std::stoul(next()));
     else if (a == "--no-detection")
@@ -95,6 +103,11 @@ int main(int argc, char** argv) {
     return 2;
   }
   try {
+    if (!effects_off.empty()) {
+      sim::SensorEffects fx = sim::sensorProfile(opt.profile);
+      for (const std::string& e : effects_off) sim::switchOffEffect(&fx, e);
+      opt.effects = fx;
+    }
     auto simulator = sim::loadScenario(rig, scene, opt);
     sim::RigSimulator& sim = *simulator;
     rosbag::Bag bag;

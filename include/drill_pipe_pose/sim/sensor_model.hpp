@@ -113,6 +113,12 @@ struct SensorEffects {
 /// Throws InputError for any other name.
 SensorEffects sensorProfile(const std::string& name);
 
+/// Switches one effect of `effects` off by its field name (axial_noise, lateral_noise,
+/// quantisation, dropout, flying_pixels, depth_offset, interference, unsynchronised,
+/// calibration_error, wear, mud, color_noise): to see what each costs the estimator. Throws
+/// InputError naming the valid names for an unknown one.
+void switchOffEffect(SensorEffects* effects, const std::string& name);
+
 /// Axial noise standard deviation [m] at depth z [m] and incidence angle theta [rad]
 /// (Fankhauser et al. 2015, see SensorEffects::axial_noise). theta is clamped to
 /// max_incidence_rad.
