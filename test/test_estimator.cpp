@@ -313,6 +313,8 @@ TEST(EstimatorConfig, RejectsBadKeysByName) {
       {[](EstimatorConfig& c) { c.temporal.confirmations = -1; }, "temporal.confirmations"},
       {[](EstimatorConfig& c) { c.profile_fit.silhouette_min_inlier_fraction = 1.5; },
        "profile_fit.silhouette_min_inlier_fraction"},
+      {[](EstimatorConfig& c) { c.profile_fit.incidence_noise = -0.1; },
+       "profile_fit.incidence_noise"},
       {[](EstimatorConfig& c) { c.profile_fit.support_clearance = -0.01; },
        "profile_fit.support_clearance"},
       {[](EstimatorConfig& c) { c.instances.radius_difference = -0.001; },
@@ -782,6 +784,44 @@ TEST(ProfileRegistration, SilhouettePointsSteerOnlyBesideTheSidesOfAWellExplaine
   EXPECT_LT(std::abs(fit(stray, true).origin.y()), 1e-4);
   cfg.silhouette_min_inlier_fraction = 0.4;  // the stray points then no longer stop them
   EXPECT_GT(fit(stray, true).origin.y(), 2e-4);
+}
+
+TEST(ProfileRegistration, IncidenceNoiseWeighsGrazingPointsLess) {
+  // A vertical box end seen from one camera 4 m away (x toward the joint). The points of its +y
+  // side seen at more than 60 deg incidence lie 20 mm too far along their rays (the depth noise
+  // grows toward grazing incidence), the others exactly on it.
+  const ToolJointDimensions dims;
+  const ProfileModel box(EndLabel::kBoxEnd, dims);
+  const Eigen::Vector3d eye(-4.0, 0.0, -0.1);
+  std::vector<Eigen::Vector3f> pts;
+  size_t grazing = 0;
+  for (double b = -0.2; b <= -0.02; b += 0.004)
+    for (double a = -0.1; a <= 0.1; a += 0.002) {
+      const Eigen::Vector3d d = (Eigen::Vector3d(0, a, b) - eye).normalized();
+      double t;
+      Eigen::Vector2d zr, n;
+      if (!box.rayHit(eye, d, 0.0, &t, &zr, &n)) continue;
+      const Eigen::Vector3d hit = eye + t * d;
+      const Eigen::Vector3d normal(hit.x(), hit.y(), 0.0);  // the side's, radial
+      const bool off_side = a > 0 && std::abs(normal.normalized().dot(d)) < 0.5;
+      grazing += off_side ? 1 : 0;
+      pts.push_back((hit + (off_side ? 0.02 : 0.0) * d).cast<float>());
+    }
+  ASSERT_GT(grazing, 20u);
+  const std::vector<Eigen::Vector3f> eyes(pts.size(), eye.cast<float>());
+  EstimatorConfig::ProfileFit cfg;
+  cfg.silhouette_points = false;
+  auto shift = [&](double incidence_noise) {
+    cfg.incidence_noise = incidence_noise;
+    const ProfileFitResult f =
+        refineProfile(pts, std::vector<float>(pts.size(), 0.003f), Eigen::Vector3d::Zero(),
+                      Eigen::Vector3d::UnitZ(), box, cfg, 15, true, &eyes);
+    EXPECT_TRUE(f.ok);
+    return f.origin.head<2>().norm();
+  };
+  const double off = shift(0.0), on = shift(0.12);
+  EXPECT_GT(off, 5e-4) << "the grazing points pull the joint";
+  EXPECT_LT(on, 0.5 * off) << "off " << off << " m, on " << on << " m";
 }
 
 TEST(ProfileRegistration, RadiusCheckMeasuresAThinnerJointWhateverThePose) {

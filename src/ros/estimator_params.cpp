@@ -78,6 +78,7 @@ EstimatorConfig loadEstimatorConfig(const ros::NodeHandle& pnh) {
   readNumber(pnh, "profile_fit/max_rms", c.profile_fit.max_rms, 0.0);
   readNumber(pnh, "profile_fit/min_inlier_fraction", c.profile_fit.min_inlier_fraction, 0.0);
   readParam(pnh, "profile_fit/silhouette_points", c.profile_fit.silhouette_points);
+  readNumber(pnh, "profile_fit/incidence_noise", c.profile_fit.incidence_noise, 0.0);
   readNumber(pnh, "profile_fit/silhouette_min_inlier_fraction",
              c.profile_fit.silhouette_min_inlier_fraction, 0.0);
   readNumber(pnh, "profile_fit/max_axial_std", c.profile_fit.max_axial_std, 0.0);

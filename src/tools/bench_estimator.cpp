@@ -6,7 +6,7 @@
 //       [--config estimator.yaml-like params are not read here: defaults + --work-zone]
 //       [--csv errors.csv] [--label NAME] [--skip-camera CAM] [--no-temporal] [--no-tracking]
 //       [--threads N] [--vote-fraction F] [--box-reach M] [--confirmations N]
-//       [--no-silhouette-points]
+//       [--no-silhouette-points] [--incidence-noise C]
 //
 // --skip-camera leaves one camera's frames out (a dead camera); --no-temporal turns the temporal
 // filter off; --no-tracking makes every cycle run the full decision (with both, each cycle
@@ -14,7 +14,8 @@
 // --vote-fraction sets carving.vote_fraction (the node's carving/vote_fraction; default 0.75);
 // --box-reach sets carving.box_reach (the node's carving/box_reach; default 0.5 m, 0 = off);
 // --confirmations sets temporal.confirmations (default 1, 0 = a jump restarts the filter at once);
-// --no-silhouette-points sets profile_fit.silhouette_points false.
+// --no-silhouette-points sets profile_fit.silhouette_points false; --incidence-noise sets
+// profile_fit.incidence_noise (default 0 = off).
 // Invalid ends are counted by reason.
 //
 // Cycles are formed exactly as the node forms them (FrameSynchronizer), with each frame arriving
@@ -52,7 +53,7 @@ void usage() {
   std::cerr << "usage: bench_estimator BAG [--method ours|thesis_baseline] [--max-cycles N] "
                "[--work-zone x0 y0 z0 x1 y1 z1] [--csv FILE] [--label NAME] [--skip-camera CAM] [--no-temporal] [--no-tracking] "
                "[--threads N] [--vote-fraction F] [--box-reach M] [--confirmations N] "
-               "[--no-silhouette-points]\n";
+               "[--no-silhouette-points] [--incidence-noise C]\n";
 }
 
 }  // namespace
@@ -121,6 +122,8 @@ int main(int argc, char** argv) {
       cfg.temporal.confirmations = static_cast<int>(count());
     else if (a == "--no-silhouette-points")
       cfg.profile_fit.silhouette_points = false;
+    else if (a == "--incidence-noise")
+      cfg.profile_fit.incidence_noise = number();
     else if (a == "--work-zone") {
       for (int k = 0; k < 3; ++k) cfg.work_zone.min[k] = number();
       for (int k = 0; k < 3; ++k) cfg.work_zone.max[k] = number();

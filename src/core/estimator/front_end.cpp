@@ -77,6 +77,7 @@ void validateConfig(const EstimatorConfig& c) {
   at_least(c.profile_fit.search_points, 20, "profile_fit.search_points");
   finite_positive(c.profile_fit.max_rms, "profile_fit.max_rms");
   non_negative(c.profile_fit.min_inlier_fraction, "profile_fit.min_inlier_fraction");
+  non_negative(c.profile_fit.incidence_noise, "profile_fit.incidence_noise");
   if (!(c.profile_fit.silhouette_min_inlier_fraction >= 0.0 &&
         c.profile_fit.silhouette_min_inlier_fraction <= 1.0))
     fail("estimator config: profile_fit.silhouette_min_inlier_fraction = ",

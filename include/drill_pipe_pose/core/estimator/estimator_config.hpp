@@ -147,6 +147,13 @@ struct EstimatorConfig {
     /// ...while the fit explains at least this fraction of its points (dark steel's fits explain
     /// 40-70 %: the mixed pixels at its silhouette tilted a box-end fit outside its 3-sigma).
     double silhouette_min_inlier_fraction = 0.7;
+    /// [mm] Per point, the final fit's depth sigma grows toward grazing incidence by this times
+    /// z^1.5 (theta / (pi/2 - theta))^2 (the Kinect v2 model's incidence term, 0.1, times
+    /// noise.scale: 0.12). Off by default: on the simulated thesis_angled (10 s bench bag) it
+    /// halves the tilt bias (0.64 -> 0.31 deg at 0.12) but leaves the position to the frontal
+    /// points, which the cameras' depth offsets move (4.9 -> 7.0 mm; thesis_vertical's box end
+    /// 4.3 -> 5.2 mm). A rig whose depth offsets are calibrated out may prefer it. 0 = off.
+    double incidence_noise = 0.0;
     double truncation = 0.025;   ///< [m] robust cost: residuals beyond this cost as much as this
     /// [m] only the part of the tong within (tong length - wear_margin) of the shoulder is trusted
     /// in the refinement (worn joints are up to 20 mm shorter than nominal).
