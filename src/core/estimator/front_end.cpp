@@ -216,6 +216,13 @@ float depthSigma(const EstimatorConfig::Noise& noise, double z) {
   return static_cast<float>(std::max(noise.min_sigma, noise.scale * mm * 1e-3));
 }
 
+double incidenceSigma(double coefficient_mm, double range, double cos_incidence) {
+  constexpr double kMaxIncidence = 84.0 * M_PI / 180.0;  // as the simulator's sensor model
+  const double th = std::min(std::acos(std::clamp(cos_incidence, 0.0, 1.0)), kMaxIncidence);
+  const double g = th / (M_PI_2 - th);
+  return coefficient_mm * 1e-3 * std::pow(range, 1.5) * g * g;
+}
+
 void cutOutCamera(const CycleCamera& cam, uint16_t camera_index, const EstimatorConfig& config,
                   std::array<std::vector<CloudPoint>, kNumEnds>* out) {
   const DepthProjector projector(cam.depth);

@@ -660,8 +660,6 @@ double axialSearch(const std::vector<double>& ts, const std::vector<double>& rs,
 /// misses the model counts as one of the joint's side silhouette: within 25 deg of radial, the
 /// cylinders and the 18 deg elevator taper, not the end face, the shoulders or the bore.
 constexpr double kSilhouetteNormal = 0.9;
-/// [rad] Incidence beyond which the depth noise model stops growing (as the simulator's).
-constexpr double kMaxIncidence = 84.0 * M_PI / 180.0;
 }  // namespace
 
 ProfileFitResult refineProfile(const std::vector<Eigen::Vector3f>& points,
@@ -735,15 +733,12 @@ ProfileFitResult refineProfile(const std::vector<Eigen::Vector3f>& points,
       if (silhouette && !(silhouettes && gr.y() >= kSilhouetteNormal)) continue;
       double sigma = sigmas[i];
       if (config.incidence_noise > 0 && eyes) {
-        // The depth noise's growth toward grazing incidence (Fankhauser et al. 2015:
-        // + c z^1.5 (theta / (pi/2 - theta))^2 mm, theta at most 84 deg), at the model's normal.
+        // The depth noise's growth toward grazing incidence, at the model's normal there.
         const Eigen::Vector3d ray = pts[i] - (*eyes)[i].cast<double>();
         const double range = ray.norm();
         const Eigen::Vector3d n3 = gr.x() * z + gr.y() * (qp / rc);
-        const double cos_inc = std::min(1.0, std::abs(n3.dot(ray)) / (range * n3.norm()));
-        const double th = std::min(std::acos(cos_inc), kMaxIncidence);
-        const double g = th / (M_PI_2 - th);
-        sigma += config.incidence_noise * 1e-3 * std::pow(range, 1.5) * g * g;
+        sigma += incidenceSigma(config.incidence_noise, range,
+                                std::abs(n3.dot(ray)) / (range * n3.norm()));
       }
       const double k = config.huber * sigma;
       const double w = (d <= k ? 1.0 : k / d) / (sigma * sigma);

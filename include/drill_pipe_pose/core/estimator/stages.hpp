@@ -62,6 +62,12 @@ void cutOutCamera(const CycleCamera& cam, uint16_t camera_index, const Estimator
 /// Depth noise std [m] at depth z [m] (config.noise).
 float depthSigma(const EstimatorConfig::Noise& noise, double z);
 
+/// The depth noise's growth [m] toward grazing incidence (the Kinect v2 model's incidence term,
+/// Fankhauser et al. 2015): coefficient_mm x range^1.5 x (theta / (pi/2 - theta))^2 mm, theta
+/// the angle between the ray and the surface normal, at most 84 deg. Added to depthSigma where
+/// the surface is known (profile_fit.incidence_noise).
+double incidenceSigma(double coefficient_mm, double range, double cos_incidence);
+
 /// Visual-hull carving of the points of `label` (see EstimatorConfig::Carving).
 std::vector<CloudPoint> carve(const std::vector<CloudPoint>& points, EndLabel label,
                               const std::vector<CycleCamera>& cameras,
