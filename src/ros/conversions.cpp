@@ -1,5 +1,7 @@
 #include "drill_pipe_pose/ros/conversions.hpp"
 
+#include <tf2_eigen/tf2_eigen.h>
+
 #include <algorithm>
 
 #include "drill_pipe_pose/core/errors.hpp"
@@ -158,6 +160,16 @@ SensorFrame toMsg(const SensorFrameData& f) {
   m.depth = toMsg(f.depth, f.depth_stamp_ns, f.depth_frame_id);
   for (const auto& b : f.boxes) m.boxes.push_back(toMsg(b));
   return m;
+}
+
+geometry_msgs::TransformStamped toTransformMsg(const Eigen::Isometry3d& T_parent_child,
+                                               const std::string& parent, const std::string& child,
+                                               const ros::Time& stamp) {
+  geometry_msgs::TransformStamped t = tf2::eigenToTransform(T_parent_child);
+  t.header.stamp = stamp;
+  t.header.frame_id = parent;
+  t.child_frame_id = child;
+  return t;
 }
 
 }  // namespace drill_pipe_pose

@@ -24,13 +24,13 @@
 #include <memory>
 #include <optional>
 
-#include "drill_pipe_pose/core/estimator/pose_estimator.hpp"
-#include "drill_pipe_pose/core/frame_sync.hpp"
+#include "drill_pipe_pose/core/cycle_runner.hpp"
+#include "drill_pipe_pose/core/errors.hpp"
 #include "drill_pipe_pose/core/pipe_end_frame.hpp"
 #include "drill_pipe_pose/ros/conversions.hpp"
 #include "drill_pipe_pose/ros/estimator_params.hpp"
 #include "drill_pipe_pose/ros/params.hpp"
-#include "drill_pipe_pose/ros/sim_messages.hpp"
+#include "drill_pipe_pose/ros/tf_source.hpp"
 
 namespace drill_pipe_pose {
 namespace {
@@ -40,29 +40,28 @@ double wallNow() {
 }
 
 struct NodeConfig {
-  std::vector<std::string> cameras;  ///< required: the sensor nodes to fuse
-  std::string world_frame = conventions::kDefaultWorldFrame;
+  CycleRunnerConfig runner;  ///< cameras (required), world frame, max_pose_age, sync
   std::array<std::string, kNumEnds> end_frames{{"box_end", "pin_end"}};
-  double max_pose_age = 0.2;  ///< [s] an end not seen for longer is reported invalid
-  double tf_timeout = 0.0;    ///< [s] wait for TF per lookup (0: only what is buffered)
-  FrameSyncConfig sync;
+  double tf_timeout = 0.0;  ///< [s] wait for TF per lookup (0: only what is buffered)
 };
 
 NodeConfig loadNodeConfig(const ros::NodeHandle& pnh) {
   NodeConfig c;
-  readParam(pnh, "cameras", c.cameras);
-  if (c.cameras.empty())
+  CycleRunnerConfig& r = c.runner;
+  r.world_frame = conventions::kDefaultWorldFrame;
+  readParam(pnh, "cameras", r.cameras);
+  if (r.cameras.empty())
     fail("parameter ", pnh.resolveName("cameras"),
          " is missing or empty: list the sensor nodes to fuse, e.g. [cam1, cam2]");
-  readParam(pnh, "world_frame", c.world_frame);
+  readParam(pnh, "world_frame", r.world_frame);
   readParam(pnh, "box_end_frame", c.end_frames[0]);
   readParam(pnh, "pin_end_frame", c.end_frames[1]);
-  readNumber(pnh, "max_pose_age", c.max_pose_age, 0.0);
+  readNumber(pnh, "max_pose_age", r.max_pose_age, 0.0);
   readNumber(pnh, "tf_timeout", c.tf_timeout, 0.0);
-  readNumber(pnh, "sync/window", c.sync.window, 1e-4);
-  readNumber(pnh, "sync/max_wait", c.sync.max_wait, 0.0);
-  readNumber(pnh, "sync/camera_timeout", c.sync.camera_timeout, 1e-3);
-  readNumber(pnh, "sync/buffer_size", c.sync.buffer_size, 1.0);
+  readNumber(pnh, "sync/window", r.sync.window, 1e-4);
+  readNumber(pnh, "sync/max_wait", r.sync.max_wait, 0.0);
+  readNumber(pnh, "sync/camera_timeout", r.sync.camera_timeout, 1e-3);
+  readNumber(pnh, "sync/buffer_size", r.sync.buffer_size, 1.0);
   return c;
 }
 
@@ -73,11 +72,11 @@ class PoseEstimatorNode {
         pnh_(pnh),
         cfg_(loadNodeConfig(pnh)),
         est_cfg_(loadEstimatorConfig(pnh)),
-        estimator_(est_cfg_),
-        sync_(cfg_.cameras, cfg_.sync),
-        tf_listener_(tf_buffer_) {
+        tf_listener_(tf_buffer_),
+        tf_(&tf_buffer_, cfg_.tf_timeout),
+        runner_(cfg_.runner, est_cfg_, &tf_) {
     static_tf_sub_ = nh_.subscribe("/tf_static", 100, &PoseEstimatorNode::onStaticTf, this);
-    for (const auto& cam : cfg_.cameras) {
+    for (const auto& cam : cfg_.runner.cameras) {
       const std::string topic = conventions::sensorFrameTopic(cam);
       subs_.push_back(nh_.subscribe<SensorFrame>(
           topic, 10, [this, cam](const SensorFrameConstPtr& m) { onFrame(cam, m); },
@@ -98,161 +97,103 @@ class PoseEstimatorNode {
     diag_timer_ = nh_.createWallTimer(ros::WallDuration(1.0),
                                       [this](const ros::WallTimerEvent&) { publishDiagnostics(); });
     std::string cams;
-    for (const auto& c : cfg_.cameras) cams += " " + c;
+    for (const auto& c : cfg_.runner.cameras) cams += " " + c;
     ROS_INFO(
         "pose_estimator: fusing %zu camera(s):%s; world frame '%s'; sync window %.1f ms, "
         "max wait %.1f ms, camera timeout %.2f s; max pose age %.2f s",
-        cfg_.cameras.size(), cams.c_str(), cfg_.world_frame.c_str(), cfg_.sync.window * 1e3,
-        cfg_.sync.max_wait * 1e3, cfg_.sync.camera_timeout, cfg_.max_pose_age);
+        cfg_.runner.cameras.size(), cams.c_str(), cfg_.runner.world_frame.c_str(),
+        cfg_.runner.sync.window * 1e3, cfg_.runner.sync.max_wait * 1e3,
+        cfg_.runner.sync.camera_timeout, cfg_.runner.max_pose_age);
     ROS_INFO("pose_estimator: %s", describeEstimatorConfig(est_cfg_).c_str());
   }
 
  private:
-  struct Stored {
-    std::string camera;
-    SensorFrameConstPtr msg;
-  };
   struct Counters {
     uint64_t bad_input = 0, tf_failures = 0, received_at_last_diag = 0;
   };
 
   void onFrame(const std::string& cam, const SensorFrameConstPtr& msg) {
     const int64_t stamp = toNs(msg->header.stamp);
-    if (last_cycle_stamp_ns_ > 0 && stamp < last_cycle_stamp_ns_ - 1000000000LL) {
-      // The clock jumped back (a looped bag, a restarted simulator): start afresh.
+    const AddResult r = runner_.add(cam, stamp, wallNow(), [msg] { return fromMsg(msg); });
+    if (r.time_jumped_back)
       ROS_WARN(
           "pose_estimator: %s frame stamped %.3f s is %.1f s older than the last cycle: "
-          "time jumped back (looped bag?); resetting buffers and poses",
-          cam.c_str(), stamp * 1e-9, (last_cycle_stamp_ns_ - stamp) * 1e-9);
-      sync_.reset();
-      for (auto id : sync_.takeDropped()) store_.erase(id);
-      estimator_.reset();
-      for (auto& l : last_) l.reset();
-      last_cycle_stamp_ns_ = 0;
-    }
-    const uint64_t id = next_id_++;
-    store_[id] = Stored{cam, msg};
-    if (!sync_.add(cam, stamp, wallNow(), id))
+          "time jumped back (looped bag?); buffers and poses were reset",
+          cam.c_str(), stamp * 1e-9, r.jump_s);
+    if (!r.accepted)
       ROS_DEBUG("pose_estimator: %s frame %.3f s too late for its cycle", cam.c_str(),
                 stamp * 1e-9);
     processReady();
   }
 
   void processReady() {
-    for (const auto& cycle : sync_.poll(wallNow())) processCycle(cycle);
-    for (auto id : sync_.takeDropped()) store_.erase(id);
+    for (const CycleOutput& out : runner_.poll(wallNow())) {
+      report(out);
+      publish(out);
+    }
   }
 
-  /// Converts one stored frame and looks up its transforms; nullopt (with a throttled message
-  /// naming the camera) when it cannot be used this cycle.
-  std::optional<CameraInput> makeInput(const Stored& s) {
-    CameraInput in;
-    try {
-      in.frame = fromMsg(s.msg);
-    } catch (const InputError& e) {
-      ++counters_[s.camera].bad_input;
-      if (throttle("bad input " + s.camera, 5.0))
-        ROS_ERROR("pose_estimator: dropping a frame of %s (throttled, 5 s): %s", s.camera.c_str(),
-                  e.what());
-      return std::nullopt;
-    }
-    const std::string depth_frame =
-        !in.frame.depth_frame_id.empty() ? in.frame.depth_frame_id : in.frame.depth_info.frame_id;
-    const std::string color_frame =
-        !in.frame.color_info.frame_id.empty() ? in.frame.color_info.frame_id : in.frame.frame_id;
-    const ros::Time stamp =
-        fromNs(in.frame.depth_stamp_ns ? in.frame.depth_stamp_ns : in.frame.stamp_ns);
-    try {
-      in.T_world_depth = lookup(cfg_.world_frame, depth_frame, stamp);
-      in.T_color_depth = lookup(color_frame, depth_frame, stamp);
-    } catch (const tf2::TransformException& e) {
-      ++counters_[s.camera].tf_failures;
-      if (throttle("tf " + s.camera, 5.0))
-        ROS_WARN(
-            "pose_estimator: no transform for %s (throttled, 5 s): %s <- '%s' and '%s' <- '%s': "
-            "%s",
-            s.camera.c_str(), cfg_.world_frame.c_str(), depth_frame.c_str(), color_frame.c_str(),
-            depth_frame.c_str(), e.what());
-      return std::nullopt;
-    }
-    return in;
-  }
-
-  void processCycle(const FrameSynchronizer::Cycle& cycle) {
-    std::vector<CameraInput> inputs;
-    for (const auto& [cam, id] : cycle.frames) {
-      auto it = store_.find(id);
-      if (it == store_.end()) {
-        if (throttle("store " + cam, 5.0))
-          ROS_WARN("pose_estimator: frame %lu of %s is gone from the store (throttled, 5 s)",
-                   static_cast<unsigned long>(id), cam.c_str());
-        continue;
+  /// Logs (throttled) and counts the frames a cycle left out and the cameras it skipped.
+  void report(const CycleOutput& out) {
+    for (const InputProblem& p : out.problems) {
+      if (p.kind == InputProblem::Kind::kTransform) {
+        ++counters_[p.camera].tf_failures;
+        if (throttle("tf " + p.camera, 5.0))
+          ROS_WARN("pose_estimator: no transform for %s (throttled, 5 s): %s", p.camera.c_str(),
+                   p.message.c_str());
+      } else {
+        ++counters_[p.camera].bad_input;
+        if (throttle("bad input " + p.camera, 5.0))
+          ROS_ERROR("pose_estimator: dropping a frame of %s (throttled, 5 s): %s",
+                    p.camera.c_str(), p.message.c_str());
       }
-      if (auto in = makeInput(it->second)) inputs.push_back(std::move(*in));
-      store_.erase(it);
     }
-    CycleResult result = estimator_.process(inputs);
-    for (const auto& err : result.camera_errors)
+    for (const auto& err : out.result.camera_errors)
       if (throttle(err.substr(0, err.find(':')), 5.0))
         ROS_ERROR("pose_estimator: %s (throttled, 5 s)", err.c_str());
-    last_cycle_stamp_ns_ = cycle.stamp_ns;
-    publish(cycle, result, inputs);
   }
 
-  void publish(const FrameSynchronizer::Cycle& cycle, const CycleResult& r,
-               const std::vector<CameraInput>& inputs) {
-    const ros::Time stamp = fromNs(cycle.stamp_ns);
+  void publish(const CycleOutput& out) {
+    const CycleResult& r = out.result;
+    const ros::Time stamp = fromNs(out.cycle.stamp_ns);
     PipeEnds ends;
     ends.header.stamp = stamp;
-    ends.header.frame_id = cfg_.world_frame;
+    ends.header.frame_id = cfg_.runner.world_frame;
     EstimatorStatus status;
     status.header = ends.header;
-    status.cameras_configured = cfg_.cameras;
-    status.cameras_live = sync_.liveCameras();
+    status.cameras_configured = cfg_.runner.cameras;
+    status.cameras_live = runner_.sync().liveCameras();
     status.cameras_used = r.cameras_used;
     std::string message;
-    std::array<const EndEstimate*, kNumEnds> reported{{nullptr, nullptr}};
     for (int e = 0; e < kNumEnds; ++e) {
       const EndEstimate& est = r.ends[e];
-      PipeEnd out;
-      out.label = labelName(static_cast<EndLabel>(e));
-      if (est.valid) {
-        last_[e] = LastEstimate{est, cycle.stamp_ns};
-        publishPose(e, est, stamp);
+      const PublishedEnd& pub = out.ends[e];
+      if (est.valid) publishPose(e, est, stamp);
+      PipeEnd end;
+      end.label = labelName(static_cast<EndLabel>(e));
+      end.valid = pub.valid;
+      end.age = ros::Duration(pub.age);
+      end.message = pub.message;
+      if (pub.valid) {
+        end.pose.pose = tf2::toMsg(pub.estimate.T_world_end);
+        for (int i = 0; i < 36; ++i)
+          end.pose.covariance[i] = pub.estimate.covariance(i / 6, i % 6);
+        end.residual = pub.estimate.residual;
+        end.points = static_cast<uint32_t>(pub.estimate.points);
+        end.cameras = pub.estimate.cameras;
       }
-      const double age = last_[e] ? (cycle.stamp_ns - last_[e]->stamp_ns) * 1e-9 : 0.0;
-      if (last_[e] && age <= cfg_.max_pose_age) {
-        const EndEstimate& use = last_[e]->estimate;
-        reported[e] = &use;
-        out.valid = true;
-        out.pose.pose = tf2::toMsg(use.T_world_end);
-        for (int i = 0; i < 36; ++i) out.pose.covariance[i] = use.covariance(i / 6, i % 6);
-        out.age = ros::Duration(age);
-        out.residual = use.residual;
-        out.points = static_cast<uint32_t>(use.points);
-        out.cameras = use.cameras;
-        if (!est.valid)
-          out.message = "not seen this cycle (" + est.reason + "); last pose repeated";
-        else if (est.label_corrected)
-          out.message = "label corrected by geometry";
-      } else {
-        out.valid = false;
-        out.age = ros::Duration(last_[e] ? age : 0.0);
-        out.message = last_[e] ? "last pose too old; " + est.reason : est.reason;
-      }
-      if (!out.message.empty()) message += std::string(out.label) + ": " + out.message + ". ";
-      status.ends.push_back(out.label);
+      if (!end.message.empty()) message += std::string(end.label) + ": " + end.message + ". ";
+      status.ends.push_back(end.label);
       status.points.push_back(est.points);
       status.residual.push_back(est.residual);
       status.instances.push_back(r.instances[e]);
-      ends.ends.push_back(out);
+      ends.ends.push_back(end);
     }
-    if (reported[0] && reported[1]) {
-      const PinInBoxRelation rel = pinInBox(reported[0]->T_world_end, reported[1]->T_world_end);
+    if (out.pin_in_box) {
       ends.pin_in_box.valid = true;
-      ends.pin_in_box.axial_standoff = rel.axial_standoff;
-      ends.pin_in_box.lateral_offset = rel.lateral_offset;
-      ends.pin_in_box.axis_angle = rel.axis_angle;
+      ends.pin_in_box.axial_standoff = out.pin_in_box->axial_standoff;
+      ends.pin_in_box.lateral_offset = out.pin_in_box->lateral_offset;
+      ends.pin_in_box.axis_angle = out.pin_in_box->axis_angle;
     }
     status.cutout_ms = r.timing.cutout_ms;
     status.fusion_ms = r.timing.fusion_ms;
@@ -261,20 +202,20 @@ class PoseEstimatorNode {
     status.total_ms = r.timing.total_ms;
     status.message = message;
     ends_pub_.publish(ends);
-    status.latency_ms = (wallNow() - cycle.last_arrival) * 1e3;
+    status.latency_ms = (wallNow() - out.cycle.last_arrival) * 1e3;
     status_pub_.publish(status);
-    publishDebug(r, stamp, inputs);
+    publishDebug(r, stamp, out.inputs);
   }
 
   void publishPose(int e, const EndEstimate& est, const ros::Time& stamp) {
     geometry_msgs::PoseWithCovarianceStamped p;
     p.header.stamp = stamp;
-    p.header.frame_id = cfg_.world_frame;
+    p.header.frame_id = cfg_.runner.world_frame;
     p.pose.pose = tf2::toMsg(est.T_world_end);
     for (int i = 0; i < 36; ++i) p.pose.covariance[i] = est.covariance(i / 6, i % 6);
     pose_pubs_[e].publish(p);
     tf_broadcaster_.sendTransform(
-        toTransformMsg(est.T_world_end, cfg_.world_frame, cfg_.end_frames[e], stamp));
+        toTransformMsg(est.T_world_end, cfg_.runner.world_frame, cfg_.end_frames[e], stamp));
   }
 
   sensor_msgs::PointCloud2 cloudMsg(
@@ -282,7 +223,7 @@ class PoseEstimatorNode {
       const ros::Time& stamp) {
     sensor_msgs::PointCloud2 c;
     c.header.stamp = stamp;
-    c.header.frame_id = cfg_.world_frame;
+    c.header.frame_id = cfg_.runner.world_frame;
     sensor_msgs::PointCloud2Modifier mod(c);
     mod.setPointCloud2FieldsByString(2, "xyz", "rgb");
     size_t n = 0;
@@ -311,7 +252,7 @@ class PoseEstimatorNode {
     for (int e = 0; e < kNumEnds; ++e) {
       visualization_msgs::Marker m;
       m.header.stamp = stamp;
-      m.header.frame_id = cfg_.world_frame;
+      m.header.frame_id = cfg_.runner.world_frame;
       m.ns = labelName(static_cast<EndLabel>(e));
       m.id = e;
       m.type = visualization_msgs::Marker::MESH_RESOURCE;
@@ -376,7 +317,7 @@ class PoseEstimatorNode {
     // Status text above the work zone: each end's state in a line.
     visualization_msgs::Marker text;
     text.header.stamp = stamp;
-    text.header.frame_id = cfg_.world_frame;
+    text.header.frame_id = cfg_.runner.world_frame;
     text.ns = "status";
     text.type = visualization_msgs::Marker::TEXT_VIEW_FACING;
     text.action = visualization_msgs::Marker::ADD;
@@ -400,7 +341,7 @@ class PoseEstimatorNode {
       text.text += line;
     }
     std::snprintf(line, sizeof(line), "%zu/%zu cameras, %.1f ms", r.cameras_used.size(),
-                  cfg_.cameras.size(), r.timing.total_ms);
+                  cfg_.runner.cameras.size(), r.timing.total_ms);
     text.text += line;
     ma.markers.push_back(text);
     marker_pub_.publish(ma);
@@ -412,8 +353,8 @@ class PoseEstimatorNode {
     diagnostic_msgs::DiagnosticArray arr;
     arr.header.stamp = ros::Time::now();
     const double now = wallNow();
-    for (const auto& cam : cfg_.cameras) {
-      const CameraSyncStats& st = sync_.stats().at(cam);
+    for (const auto& cam : cfg_.runner.cameras) {
+      const CameraSyncStats& st = runner_.sync().stats().at(cam);
       Counters& cnt = counters_[cam];
       diagnostic_msgs::DiagnosticStatus s;
       s.name = "drill_pipe_pose: camera " + cam;
@@ -452,7 +393,7 @@ class PoseEstimatorNode {
     }
     last_diag_wall_ = now;
     diag_pub_.publish(arr);
-    if (sync_.liveCameras().empty() && throttle("no live camera", 10.0))
+    if (runner_.sync().liveCameras().empty() && throttle("no live camera", 10.0))
       ROS_WARN(
           "pose_estimator: no live camera (throttled, 10 s): is anything publishing "
           "<cam>/sensor_frame? (see /diagnostics)");
@@ -471,46 +412,24 @@ class PoseEstimatorNode {
   /// /tf_static also goes into a buffer of our own: tf2_ros clears its buffer, static transforms
   /// included, when the clock jumps back (a looped bag), possibly after the bag re-sent them.
   void onStaticTf(const tf2_msgs::TFMessageConstPtr& msg) {
-    for (const auto& t : msg->transforms) static_buffer_.setTransform(t, "tf_static", true);
+    for (const auto& t : msg->transforms) tf_.add(t, true);
   }
-
-  /// target <- source at `stamp`: from the static transforms when they connect the two frames,
-  /// else from TF (waiting up to tf_timeout). Throws tf2::TransformException.
-  Eigen::Isometry3d lookup(const std::string& target, const std::string& source,
-                           const ros::Time& stamp) {
-    try {
-      return tf2::transformToEigen(static_buffer_.lookupTransform(target, source, ros::Time(0)));
-    } catch (const tf2::TransformException&) {
-      return tf2::transformToEigen(
-          tf_buffer_.lookupTransform(target, source, stamp, ros::Duration(cfg_.tf_timeout)));
-    }
-  }
-
-  struct LastEstimate {
-    EndEstimate estimate;
-    int64_t stamp_ns;
-  };
 
   ros::NodeHandle nh_, pnh_;
   NodeConfig cfg_;
   EstimatorConfig est_cfg_;
-  PoseEstimator estimator_;
-  FrameSynchronizer sync_;
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
+  TfTransforms tf_;  ///< /tf_static (onStaticTf), then tf_buffer_
+  CycleRunner runner_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
-  tf2::BufferCore static_buffer_;  ///< /tf_static only (see onStaticTf)
   std::map<std::string, double> throttle_last_;                       ///< wall time [s] by key
   ros::Subscriber static_tf_sub_;
   std::vector<ros::Subscriber> subs_;
   std::array<ros::Publisher, kNumEnds> pose_pubs_;
   ros::Publisher ends_pub_, status_pub_, diag_pub_, fused_pub_, segmented_pub_, marker_pub_;
   ros::WallTimer poll_timer_, diag_timer_;
-  std::map<uint64_t, Stored> store_;
   std::map<std::string, Counters> counters_;
-  std::array<std::optional<LastEstimate>, kNumEnds> last_;
-  uint64_t next_id_ = 0;
-  int64_t last_cycle_stamp_ns_ = 0;
   double last_diag_wall_ = wallNow();
 };
 

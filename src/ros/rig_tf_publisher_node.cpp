@@ -9,8 +9,8 @@
 
 #include "drill_pipe_pose/core/conventions.hpp"
 #include "drill_pipe_pose/core/rig_calibration.hpp"
+#include "drill_pipe_pose/ros/conversions.hpp"
 #include "drill_pipe_pose/ros/params.hpp"
-#include "drill_pipe_pose/ros/sim_messages.hpp"
 
 int main(int argc, char** argv) {
   ros::init(argc, argv, "rig_tf_publisher");

@@ -7,16 +7,6 @@
 
 namespace drill_pipe_pose {
 
-geometry_msgs::TransformStamped toTransformMsg(const Eigen::Isometry3d& T_parent_child,
-                                               const std::string& parent, const std::string& child,
-                                               const ros::Time& stamp) {
-  geometry_msgs::TransformStamped t = tf2::eigenToTransform(T_parent_child);
-  t.header.stamp = stamp;
-  t.header.frame_id = parent;
-  t.child_frame_id = child;
-  return t;
-}
-
 std::vector<geometry_msgs::TransformStamped> simStaticTransforms(const sim::RigSimulator& sim) {
   std::vector<geometry_msgs::TransformStamped> out;
   const ros::Time stamp = fromNs(sim.stampNs(0.0));

@@ -8,6 +8,7 @@
 
 #include "drill_pipe_pose/core/conventions.hpp"
 #include "drill_pipe_pose/core/errors.hpp"
+#include "drill_pipe_pose/core/kinect_noise.hpp"
 #include "drill_pipe_pose/core/pipe_end_frame.hpp"
 #include "drill_pipe_pose/sim/random.hpp"
 
@@ -140,10 +141,8 @@ bool projectBounds(const Eigen::AlignedBox3d& box_world, const Eigen::Isometry3d
 
 /// The incidence term g^2 = (theta / (pi/2 - theta))^2 of Fankhauser's model from cos(theta).
 float incidenceTerm(float cos_theta, double max_incidence_rad) {
-  double theta = std::acos(std::clamp(static_cast<double>(cos_theta), 0.0, 1.0));
-  theta = std::min(theta, max_incidence_rad);
-  const double g = theta / (M_PI_2 - theta);
-  return static_cast<float>(g * g);
+  return static_cast<float>(
+      kinect_v2::incidenceFactor(static_cast<double>(cos_theta), max_incidence_rad));
 }
 
 }  // namespace
@@ -332,6 +331,8 @@ void RigSimulator::ensureBackground(Camera& cam) {
   cam.depth_ready = true;
 }
 
+// Over 120 lines because the sensor effects run in one pass per pixel, drawing their random
+// numbers in a fixed order (the rendered frames of a seed must not change).
 void RigSimulator::renderDepth(Camera& cam, size_t index, const SceneSnapshot& snap,
                                uint64_t frame_index, DepthImage* out) {
   ensureBackground(cam);
@@ -441,9 +442,7 @@ void RigSimulator::renderDepth(Camera& cam, size_t index, const SceneSnapshot& s
         if (p_drop > 0 && ((bits >> 32) & 0xFFFF) * (1.0f / 65536.0f) < p_drop) continue;
       }
       if (axial_on) {
-        // Fankhauser et al. 2015, axial: sigma[mm] = 1.5 - 0.5 z + 0.3 z^2 + 0.1 z^1.5 g^2.
-        const float sigma_mm =
-            std::max(0.1f, 1.5f - 0.5f * z + 0.3f * z * z + 0.1f * z * std::sqrt(z) * cam.g2[s]);
+        const float sigma_mm = std::max(0.1f, kinect_v2::axialSigmaMm(z, cam.g2[s]));
         const uint64_t nb = rng.next();
         z += axial_scale * sigma_mm * 1e-3f * normal[nb & 0xFFFF];
         if (burst && v >= band_v0 && v < band_v0 + band_h) {

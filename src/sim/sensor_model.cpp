@@ -7,6 +7,7 @@
 #include <utility>
 
 #include "drill_pipe_pose/core/errors.hpp"
+#include "drill_pipe_pose/core/kinect_noise.hpp"
 #include "drill_pipe_pose/sim/yaml_util.hpp"
 
 namespace drill_pipe_pose::sim {
@@ -102,9 +103,8 @@ void switchOffEffect(SensorEffects* effects, const std::string& name) {
 }
 
 double axialNoiseSigma(double z, double theta, double max_incidence_rad) {
-  theta = std::clamp(std::abs(theta), 0.0, max_incidence_rad);
-  const double g = theta / (M_PI_2 - theta);
-  const double mm = 1.5 - 0.5 * z + 0.3 * z * z + 0.1 * std::pow(z, 1.5) * g * g;
+  const double mm =
+      kinect_v2::axialSigmaMm(z, kinect_v2::incidenceFactor(std::cos(theta), max_incidence_rad));
   return std::max(mm, 0.1) * 1e-3;
 }
 

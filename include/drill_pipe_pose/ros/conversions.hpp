@@ -3,6 +3,7 @@
 
 #include <drill_pipe_pose/PipeBox.h>
 #include <drill_pipe_pose/SensorFrame.h>
+#include <geometry_msgs/TransformStamped.h>
 #include <ros/time.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
@@ -10,6 +11,9 @@
 #include "drill_pipe_pose/core/camera_model.hpp"
 #include "drill_pipe_pose/core/depth_image.hpp"
 #include "drill_pipe_pose/core/sensor_frame.hpp"
+
+#include <Eigen/Geometry>
+#include <string>
 
 namespace drill_pipe_pose {
 
@@ -35,5 +39,10 @@ PipeBox toMsg(const DetectionBox& box);
 /// Throws InputError naming the camera and the field. The depth pixels are shared, not copied.
 SensorFrameData fromMsg(const SensorFrameConstPtr& msg);
 SensorFrame toMsg(const SensorFrameData& frame);
+
+/// A transform message parent <- child (T_parent_child) stamped `stamp`.
+geometry_msgs::TransformStamped toTransformMsg(const Eigen::Isometry3d& T_parent_child,
+                                               const std::string& parent, const std::string& child,
+                                               const ros::Time& stamp);
 
 }  // namespace drill_pipe_pose

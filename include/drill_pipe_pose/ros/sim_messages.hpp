@@ -11,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include "drill_pipe_pose/ros/conversions.hpp"
 #include "drill_pipe_pose/sim/rig_simulator.hpp"
 
 namespace drill_pipe_pose {
@@ -34,9 +35,5 @@ struct KinectTopics {
 KinectTopics simKinectTopics(const sim::RigSimulator& sim, size_t camera,
                              const sim::RigSimulator::Frame& frame);
 
-/// Geometry conversions.
-geometry_msgs::TransformStamped toTransformMsg(const Eigen::Isometry3d& T_parent_child,
-                                               const std::string& parent, const std::string& child,
-                                               const ros::Time& stamp);
 
 }  // namespace drill_pipe_pose

@@ -92,6 +92,7 @@ const InstanceMemory* otherSize(const InstanceMemory& entry,
   return nullptr;
 }
 
+// Over 120 lines because the rules of the choice read in the order its doc comment gives them.
 InstanceChoice chooseInstance(std::vector<InstanceMemory>* memory_ptr,
                               const std::vector<InstanceFit>& fits, int track, int64_t stamp_ns,
                               const PointsNear& points_near, size_t min_points,

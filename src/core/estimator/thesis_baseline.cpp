@@ -59,6 +59,7 @@ void ThesisBaseline::reset() {
   }
 }
 
+// Over 120 lines because it follows the thesis's chapter 3.4 step by step, to be read beside it.
 void ThesisBaseline::process(const std::vector<CycleCamera>& cams, CycleResult* result) {
   const EstimatorConfig& cfg = impl_->config;
   const auto& bl = cfg.baseline;

@@ -109,7 +109,7 @@ struct EstimatorConfig {
     /// so a lone joint of another size is not recognised. A 4.5" pipe's 6 1/4" joint is 4.75 mm
     /// thinner than a 5" pipe's 6 5/8" one: in cluttered (7 m) the two measured about -3 and
     /// +1 mm, 1 mm std per decision (a temporary debug print, README "Measured results"); worn
-    /// joints are at most 1 mm thinner (DESIGN.md).
+    /// joints are at most 1 mm thinner (docs/conventions.md, sensor profiles).
     double radius_difference = 0.0025;
     double memory_s = 3.0;      ///< [s] an instance not decided for this long is forgotten
   } instances;
@@ -236,8 +236,8 @@ struct EstimatorConfig {
     double roll_variance = 1e3;      ///< [rad^2] about the axis (unobservable)
     /// The rig calibration's uncertainty per camera (1 sigma of its extrinsics' translation [m]
     /// and rotation [rad] error): a bias that no filter removes, added to the published
-    /// covariance (calibrationCovariance in pose_estimator.cpp). The defaults are the field
-    /// calibration of DESIGN.md's kinect_v2_field profile (5 mm, 0.2 deg); set them from your
+    /// covariance (calibrationCovariance in covariance.hpp). The defaults are the field
+    /// calibration of the simulator's kinect_v2_field profile (5 mm, 0.2 deg); set them from your
     /// calibration's residuals (0: extrinsics exact).
     double extrinsic_translation_std = 0.005;
     double extrinsic_rotation_std = 0.0035;

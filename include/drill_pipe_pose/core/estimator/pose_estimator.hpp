@@ -31,7 +31,7 @@ struct EndEstimate {
   EndLabel label = EndLabel::kBoxEnd;
   bool valid = false;
   std::string reason;  ///< why not valid (empty when valid)
-  /// Pipe-end frame (DESIGN.md) in the world, canonical roll.
+  /// Pipe-end frame (docs/conventions.md) in the world, canonical roll.
   Eigen::Isometry3d T_world_end = Eigen::Isometry3d::Identity();
   /// 6x6 covariance of (x, y, z [m], rotation about world x, y, z [rad]) as in
   /// geometry_msgs/PoseWithCovariance; the variance about the pipe axis (roll) is large.

@@ -1,5 +1,6 @@
 #pragma once
-// The thesis's chapter 3.4 pipeline (UiA thesis, DESIGN.md reference) on the shared front end, for
+// The thesis's chapter 3.4 pipeline (the UiA master's thesis on drill pipe-end pose estimation
+// with six Kinect v2 sensor nodes) on the shared front end, for
 // side-by-side comparison. Faithful, not improved:
 //  - cut-out: the colour box mapped to depth pixels by scaling about the principal points (the
 //    thesis's empirical mapping; no depth-to-colour registration), every valid depth pixel in it;

@@ -1,0 +1,124 @@
+#include "drill_pipe_pose/core/cycle_runner.hpp"
+
+#include <exception>
+
+#include "drill_pipe_pose/core/errors.hpp"
+
+namespace drill_pipe_pose {
+
+CycleRunner::CycleRunner(const CycleRunnerConfig& config, const EstimatorConfig& estimator,
+                         TransformSource* transforms)
+    : config_(config),
+      estimator_(estimator),
+      sync_(config.cameras, config.sync),
+      transforms_(transforms) {
+  if (config_.cameras.empty()) fail("cycle runner: no camera configured");
+  if (!transforms_) fail("cycle runner: no transform source");
+  if (!(config_.max_pose_age >= 0.0)) fail("cycle runner: max_pose_age must be >= 0");
+}
+
+void CycleRunner::reset() {
+  sync_.reset();
+  for (auto id : sync_.takeDropped()) store_.erase(id);
+  store_.clear();
+  estimator_.reset();
+  for (auto& l : last_) l.reset();
+  last_cycle_stamp_ns_ = 0;
+}
+
+AddResult CycleRunner::add(const std::string& camera, int64_t stamp_ns, double arrival,
+                           FrameLoader load) {
+  AddResult r;
+  if (last_cycle_stamp_ns_ > 0 && stamp_ns < last_cycle_stamp_ns_ - 1000000000LL) {
+    r.time_jumped_back = true;
+    r.jump_s = static_cast<double>(last_cycle_stamp_ns_ - stamp_ns) * 1e-9;
+    reset();
+  }
+  const uint64_t id = next_id_++;
+  store_[id] = {camera, std::move(load)};
+  r.accepted = sync_.add(camera, stamp_ns, arrival, id);
+  for (auto dropped : sync_.takeDropped()) store_.erase(dropped);
+  return r;
+}
+
+std::vector<CycleOutput> CycleRunner::poll(double now) {
+  std::vector<CycleOutput> out;
+  for (const auto& cycle : sync_.poll(now)) out.push_back(run(cycle));
+  for (auto id : sync_.takeDropped()) store_.erase(id);
+  return out;
+}
+
+std::optional<CameraInput> CycleRunner::assemble(const std::string& camera,
+                                                 const FrameLoader& load,
+                                                 std::vector<InputProblem>* problems) {
+  CameraInput in;
+  try {
+    in.frame = load();
+  } catch (const std::exception& e) {
+    problems->push_back({InputProblem::Kind::kBadInput, camera, e.what()});
+    return std::nullopt;
+  }
+  // The frames as a sensor node names them; older nodes leave the message-level ids empty.
+  const std::string depth_frame =
+      !in.frame.depth_frame_id.empty() ? in.frame.depth_frame_id : in.frame.depth_info.frame_id;
+  const std::string color_frame =
+      !in.frame.color_info.frame_id.empty() ? in.frame.color_info.frame_id : in.frame.frame_id;
+  const int64_t stamp = in.frame.depth_stamp_ns ? in.frame.depth_stamp_ns : in.frame.stamp_ns;
+  try {
+    in.T_world_depth = transforms_->lookup(config_.world_frame, depth_frame, stamp);
+    in.T_color_depth = transforms_->lookup(color_frame, depth_frame, stamp);
+  } catch (const std::exception& e) {
+    problems->push_back({InputProblem::Kind::kTransform, camera,
+                         config_.world_frame + " <- '" + depth_frame + "' and '" + color_frame +
+                             "' <- '" + depth_frame + "': " + e.what()});
+    return std::nullopt;
+  }
+  return in;
+}
+
+CycleOutput CycleRunner::run(const FrameSynchronizer::Cycle& cycle) {
+  CycleOutput out;
+  out.cycle = cycle;
+  for (const auto& [cam, id] : cycle.frames) {
+    auto it = store_.find(id);
+    if (it == store_.end()) {
+      out.problems.push_back({InputProblem::Kind::kBadInput, cam,
+                              "frame " + std::to_string(id) + " is gone from the store"});
+      continue;
+    }
+    if (auto in = assemble(cam, it->second.second, &out.problems))
+      out.inputs.push_back(std::move(*in));
+    store_.erase(it);
+  }
+  out.result = estimator_.process(out.inputs);
+  last_cycle_stamp_ns_ = cycle.stamp_ns;
+  for (int e = 0; e < kNumEnds; ++e)
+    out.ends[e] = publishEnd(e, out.result.ends[e], cycle.stamp_ns);
+  if (out.ends[0].valid && out.ends[1].valid)
+    out.pin_in_box =
+        pinInBox(out.ends[0].estimate.T_world_end, out.ends[1].estimate.T_world_end);
+  return out;
+}
+
+PublishedEnd CycleRunner::publishEnd(int e, const EndEstimate& fresh, int64_t stamp_ns) {
+  PublishedEnd p;
+  p.estimate = fresh;
+  if (fresh.valid) last_[e] = LastPose{fresh, stamp_ns};
+  const double age = last_[e] ? static_cast<double>(stamp_ns - last_[e]->stamp_ns) * 1e-9 : 0.0;
+  if (last_[e] && age <= config_.max_pose_age) {
+    p.valid = true;
+    p.fresh = fresh.valid;
+    p.age = age;
+    p.estimate = last_[e]->estimate;
+    if (!fresh.valid)
+      p.message = "not seen this cycle (" + fresh.reason + "); last pose repeated";
+    else if (fresh.label_corrected)
+      p.message = "label corrected by geometry";
+  } else {
+    p.age = last_[e] ? age : 0.0;
+    p.message = last_[e] ? "last pose too old; " + fresh.reason : fresh.reason;
+  }
+  return p;
+}
+
+}  // namespace drill_pipe_pose

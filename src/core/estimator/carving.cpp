@@ -1,0 +1,125 @@
+// Stage "carving": visual-hull fusion of the cut-out points.
+
+#include <algorithm>
+#include <cmath>
+
+#include "drill_pipe_pose/core/estimator/carving.hpp"
+
+namespace drill_pipe_pose {
+
+std::vector<CloudPoint> carve(const std::vector<CloudPoint>& points, EndLabel label,
+                              const std::vector<CycleCamera>& cameras,
+                              const EstimatorConfig::Carving& config) {
+  const int l = static_cast<int>(label);
+  struct Judge {
+    Eigen::Matrix3f R;
+    Eigen::Vector3f t;
+    float fx, fy, cx, cy, w, h;
+    std::vector<const DetectionBox*> boxes;
+    // Where each box's own cut-out points lie in the world (their bounding box): the camera
+    // votes against a point only within carving.box_reach of one of them.
+    std::vector<Eigen::AlignedBox3f> reach;
+    // The depth image, to tell whether the camera sees the point at all.
+    Eigen::Matrix3f R_d;
+    Eigen::Vector3f t_d;
+    float dfx, dfy, dcx, dcy;  // full-sensor principal point
+    int off_x, off_y;          // the delivered image's offset in the sensor (roi)
+    const DepthImage* depth;
+    std::array<int, 4> crop;  // depth pixels the occlusion test may read (CycleCamera::crop)
+  };
+  std::vector<Judge> judges(cameras.size());
+  std::vector<bool> can_judge(cameras.size(), false);
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    const CycleCamera& cam = cameras[c];
+    if (!cam.has_label[l]) continue;
+    can_judge[c] = true;
+    Judge& j = judges[c];
+    j.R = cam.T_color_world.linear().cast<float>();
+    j.t = cam.T_color_world.translation().cast<float>();
+    j.fx = cam.color.fx();
+    j.fy = cam.color.fy();
+    j.cx = cam.color.cx() - cam.color.offsetX();
+    j.cy = cam.color.cy() - cam.color.offsetY();
+    j.w = cam.color.imageWidth();
+    j.h = cam.color.imageHeight();
+    const Eigen::Isometry3d T_depth_world = cam.T_world_depth.inverse();
+    j.R_d = T_depth_world.linear().cast<float>();
+    j.t_d = T_depth_world.translation().cast<float>();
+    j.dfx = cam.depth.fx();
+    j.dfy = cam.depth.fy();
+    j.dcx = cam.depth.cx();
+    j.dcy = cam.depth.cy();
+    j.off_x = static_cast<int>(cam.depth.offsetX());
+    j.off_y = static_cast<int>(cam.depth.offsetY());
+    j.depth = &cam.image;
+    j.crop = cam.crop;
+    for (const auto& b : cam.boxes)
+      if (b.label == label) j.boxes.push_back(&b);
+    j.reach.assign(j.boxes.size(), Eigen::AlignedBox3f());
+  }
+  const float margin = config.margin_px;
+  auto inBox = [margin](const DetectionBox& b, float u, float v) {
+    return u >= b.x_min - margin && u <= b.x_max + margin && v >= b.y_min - margin &&
+           v <= b.y_max + margin;
+  };
+  // Pixel of a world point in camera j's colour image; false when behind it or outside.
+  auto project = [](const Judge& j, const Eigen::Vector3f& pw, float* u, float* v) {
+    const Eigen::Vector3f pc = j.R * pw + j.t;
+    if (!(pc.z() > 0.0f)) return false;
+    *u = j.fx * pc.x() / pc.z() + j.cx;
+    *v = j.fy * pc.y() / pc.z() + j.cy;
+    return !(*u < -0.5f || *v < -0.5f || *u > j.w - 0.5f || *v > j.h - 0.5f);
+  };
+  const bool reach_on = config.box_reach > 0;
+  if (reach_on)
+    for (const CloudPoint& p : points) {
+      if (p.camera >= cameras.size() || !can_judge[p.camera]) continue;
+      Judge& j = judges[p.camera];
+      float u, v;
+      if (!project(j, p.p_world, &u, &v)) continue;
+      for (size_t k = 0; k < j.boxes.size(); ++k)
+        if (inBox(*j.boxes[k], u, v)) j.reach[k].extend(p.p_world);
+    }
+  const float reach2 = static_cast<float>(config.box_reach * config.box_reach);
+  auto withinReach = [&](const Judge& j, const Eigen::Vector3f& pw) {
+    for (const auto& r : j.reach)
+      if (!r.isEmpty() && r.squaredExteriorDistance(pw) <= reach2) return true;
+    return false;
+  };
+  // Something nearer than the point on the camera's ray (its depth pixel, where delivered, is
+  // closer by more than occlusion_margin): the camera cannot see the point, and does not vote.
+  auto occluded = [&](const Judge& j, const Eigen::Vector3f& pw) {
+    const Eigen::Vector3f pd = j.R_d * pw + j.t_d;
+    if (!(pd.z() > 0.0f)) return false;
+    // Rounded in sensor pixels, then shifted: the same pixel with full and cropped depth.
+    const int u = static_cast<int>(std::round(j.dfx * pd.x() / pd.z() + j.dcx)) - j.off_x,
+              v = static_cast<int>(std::round(j.dfy * pd.y() / pd.z() + j.dcy)) - j.off_y;
+    if (u < j.crop[0] || v < j.crop[1] || u >= j.crop[2] || v >= j.crop[3]) return false;
+    const float z = j.depth->depthAt(static_cast<uint32_t>(u), static_cast<uint32_t>(v));
+    return z > 0.0f && z < pd.z() - static_cast<float>(config.occlusion_margin);
+  };
+  std::vector<CloudPoint> kept;
+  kept.reserve(points.size());
+  for (const CloudPoint& p : points) {
+    int voters = 1, inside = 1;
+    for (size_t c = 0; c < cameras.size(); ++c) {
+      if (c == p.camera || !can_judge[c]) continue;
+      const Judge& j = judges[c];
+      float u, v;
+      if (!project(j, p.p_world, &u, &v)) continue;
+      if (config.occlusion_margin > 0 && occluded(j, p.p_world)) continue;
+      bool in = false;
+      for (const DetectionBox* b : j.boxes) in = in || inBox(*b, u, v);
+      // Outside every box: a vote against only from a detection near the point.
+      if (!in && reach_on && !withinReach(j, p.p_world)) continue;
+      ++voters;
+      if (in) ++inside;
+    }
+    if (voters < config.min_cameras ||
+        (inside >= config.min_cameras && inside >= config.vote_fraction * voters))
+      kept.push_back(p);
+  }
+  return kept;
+}
+
+}  // namespace drill_pipe_pose

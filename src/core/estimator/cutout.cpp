@@ -1,0 +1,148 @@
+// Stage "cut-out": per-camera validation, the boxes' depth frusta, and the depth pixels that
+// register into a box, in the world frame. No PCL here (kept light to compile).
+
+#include <algorithm>
+#include <cmath>
+
+#include "drill_pipe_pose/core/depth_crop.hpp"
+#include "drill_pipe_pose/core/errors.hpp"
+#include "drill_pipe_pose/core/estimator/cutout.hpp"
+#include "drill_pipe_pose/core/kinect_noise.hpp"
+
+namespace drill_pipe_pose {
+
+namespace {
+
+bool finiteIsometry(const Eigen::Isometry3d& T) {
+  return T.matrix().allFinite();
+}
+
+bool insideBox(const DetectionBox& b, const Eigen::Vector2d& uv, double margin) {
+  return uv.x() >= b.x_min - margin && uv.x() <= b.x_max + margin && uv.y() >= b.y_min - margin &&
+         uv.y() <= b.y_max + margin;
+}
+
+}  // namespace
+
+CycleCamera makeCycleCamera(const SensorFrameData& frame, const Eigen::Isometry3d& T_world_depth,
+                            const Eigen::Isometry3d& T_color_depth, float min_confidence) {
+  CycleCamera cam;
+  cam.name = frame.camera;
+  const std::string& n = frame.camera;
+  cam.depth = PinholeCamera::fromCameraInfo(frame.depth_info, n + " depth_info");
+  cam.color = PinholeCamera::fromCameraInfo(frame.color_info, n + " color_info");
+  if (frame.depth.width == 0 || frame.depth.height == 0) fail(n, " depth: the image is empty");
+  validateDepthImage(frame.depth, cam.depth, n + " depth");
+  cam.image = frame.depth;
+  if (!finiteIsometry(T_world_depth)) fail(n, ": T_world_depth is not finite");
+  if (!finiteIsometry(T_color_depth)) fail(n, ": T_color_depth is not finite");
+  cam.T_world_depth = T_world_depth;
+  cam.T_color_depth = T_color_depth;
+  cam.T_color_world = T_color_depth * T_world_depth.inverse();
+  const double W = cam.color.imageWidth(), H = cam.color.imageHeight();
+  for (size_t i = 0; i < frame.boxes.size(); ++i) {
+    DetectionBox b = frame.boxes[i];
+    if (!std::isfinite(b.x_min) || !std::isfinite(b.x_max) || !std::isfinite(b.y_min) ||
+        !std::isfinite(b.y_max) || !(b.x_max > b.x_min) || !(b.y_max > b.y_min))
+      fail(n, " boxes[", i, "]: (", b.x_min, ", ", b.y_min, ") - (", b.x_max, ", ", b.y_max,
+           ") is not finite or inverted");
+    if (b.x_max < -0.5 || b.y_max < -0.5 || b.x_min > W - 0.5 || b.y_min > H - 0.5)
+      fail(n, " boxes[", i, "]: (", b.x_min, ", ", b.y_min, ") - (", b.x_max, ", ", b.y_max,
+           ") lies outside the ", W, "x", H, " colour image");
+    const int l = static_cast<int>(b.label);
+    if (l < 0 || l >= kNumEnds) fail(n, " boxes[", i, "]: unknown label ", l);
+    if (b.confidence < min_confidence) continue;
+    cam.has_label[l] = true;
+    cam.boxes.push_back(b);
+  }
+  if (!depthCropRect(cam, DepthCropConfig(), &cam.crop)) cam.crop = {{0, 0, 0, 0}};
+  return cam;
+}
+
+bool depthRectOfBox(const CycleCamera& cam, const DetectionBox& box, double margin_px,
+                    double min_range, double max_range, std::array<int, 4>* rect) {
+  const Eigen::Isometry3d T_depth_color = cam.T_color_depth.inverse();
+  double u_min = 1e9, v_min = 1e9, u_max = -1e9, v_max = -1e9;
+  int n = 0;
+  for (double u : {box.x_min - margin_px, box.x_max + margin_px})
+    for (double v : {box.y_min - margin_px, box.y_max + margin_px})
+      for (double z : {min_range, max_range}) {
+        Eigen::Vector2d uv;
+        if (!cam.depth.project(T_depth_color * cam.color.backProject(u, v, z), &uv)) continue;
+        ++n;
+        u_min = std::min(u_min, uv.x());
+        u_max = std::max(u_max, uv.x());
+        v_min = std::min(v_min, uv.y());
+        v_max = std::max(v_max, uv.y());
+      }
+  if (n == 0) return false;
+  const int W = static_cast<int>(cam.depth.imageWidth()),
+            H = static_cast<int>(cam.depth.imageHeight());
+  (*rect)[0] = std::max(0, static_cast<int>(std::floor(u_min)) - 1);
+  (*rect)[1] = std::max(0, static_cast<int>(std::floor(v_min)) - 1);
+  (*rect)[2] = std::min(W, static_cast<int>(std::ceil(u_max)) + 2);
+  (*rect)[3] = std::min(H, static_cast<int>(std::ceil(v_max)) + 2);
+  return (*rect)[0] < (*rect)[2] && (*rect)[1] < (*rect)[3];
+}
+
+float depthSigma(const EstimatorConfig::Noise& noise, double z) {
+  const double mm = kinect_v2::axialSigmaMm(z, 0.0);
+  return static_cast<float>(std::max(noise.min_sigma, noise.scale * mm * 1e-3));
+}
+
+double incidenceSigma(double coefficient_mm, double range, double cos_incidence) {
+  return kinect_v2::incidenceSigmaMm(coefficient_mm, range,
+                                     kinect_v2::incidenceFactor(cos_incidence)) *
+         1e-3;
+}
+
+void cutOutCamera(const CycleCamera& cam, uint16_t camera_index, const EstimatorConfig& config,
+                  std::array<std::vector<CloudPoint>, kNumEnds>* out) {
+  const DepthProjector projector(cam.depth);
+  const Eigen::Matrix3f R_cd = cam.T_color_depth.linear().cast<float>();
+  const Eigen::Vector3f t_cd = cam.T_color_depth.translation().cast<float>();
+  const Eigen::Matrix3f R_wd = cam.T_world_depth.linear().cast<float>();
+  const Eigen::Vector3f t_wd = cam.T_world_depth.translation().cast<float>();
+  const Eigen::Vector3f zone_min = config.work_zone.min.cast<float>();
+  const Eigen::Vector3f zone_max = config.work_zone.max.cast<float>();
+  const float fx = cam.color.fx(), fy = cam.color.fy();
+  const float cx = cam.color.cx() - cam.color.offsetX(), cy = cam.color.cy() - cam.color.offsetY();
+  const double m = config.cutout.box_margin_px;
+  const float zmin = config.cutout.min_range, zmax = config.cutout.max_range;
+  const float jump = static_cast<float>(config.cutout.edge_jump);
+  const int W = static_cast<int>(cam.image.width), H = static_cast<int>(cam.image.height);
+  for (size_t k = 0; k < cam.boxes.size(); ++k) {
+    const DetectionBox& b = cam.boxes[k];
+    std::array<int, 4> r;
+    if (!depthRectOfBox(cam, b, m, zmin, zmax, &r)) continue;
+    const int label = static_cast<int>(b.label);
+    std::vector<CloudPoint>& dst = (*out)[label];
+    projector.forEachPoint(
+        cam.image, r[0], r[1], r[2], r[3], [&](int u, int v, const Eigen::Vector3f& p) {
+          if (p.z() < zmin || p.z() > zmax) return;
+          if (jump > 0.0f) {
+            // Depth edge: mixed (flying) pixels and grazing silhouette pixels, the least
+            // reliable depths, biased toward the background.
+            const float lim = std::max(jump, 4.0f * depthSigma(config.noise, p.z()));
+            const int nu[4] = {u - 1, u + 1, u, u}, nv[4] = {v, v, v - 1, v + 1};
+            for (int q = 0; q < 4; ++q) {
+              if (nu[q] < 0 || nv[q] < 0 || nu[q] >= W || nv[q] >= H) continue;
+              const float zn = cam.image.depthAt(nu[q], nv[q]);
+              if (zn == zn && std::abs(zn - p.z()) > lim) return;
+            }
+          }
+          const Eigen::Vector3f pc = R_cd * p + t_cd;
+          if (!(pc.z() > 0.0f)) return;
+          const Eigen::Vector2d uv(fx * pc.x() / pc.z() + cx, fy * pc.y() / pc.z() + cy);
+          if (!insideBox(b, uv, m)) return;
+          for (size_t j = 0; j < k; ++j)  // emitted by an earlier box already
+            if (cam.boxes[j].label == b.label && insideBox(cam.boxes[j], uv, m)) return;
+          const Eigen::Vector3f pw = R_wd * p + t_wd;
+          if ((pw.array() < zone_min.array()).any() || (pw.array() > zone_max.array()).any())
+            return;
+          dst.push_back({pw, depthSigma(config.noise, p.z()), camera_index});
+        });
+  }
+}
+
+}  // namespace drill_pipe_pose

@@ -1,0 +1,154 @@
+#include "label_fit.hpp"
+
+#include <algorithm>
+#include <limits>
+#include <set>
+#include <sstream>
+
+#include "instance_fit.hpp"
+
+namespace drill_pipe_pose {
+
+namespace {
+
+/// The clusters of a label's carved points (largest first) measured by at least
+/// carving.min_cameras cameras (fewer when fewer have a box of the label): one camera that calls
+/// the other end by this label does not make an instance.
+std::vector<std::vector<size_t>> instanceClusters(const CycleContext& ctx, int l,
+                                                  const std::vector<CloudPoint>& carved) {
+  const EstimatorConfig& config = ctx.config;
+  std::vector<std::vector<size_t>> clusters = euclideanClusters(
+      carved, config.instances.cluster_tolerance, config.axis_fit.min_points);
+  int with_label = 0;
+  for (const auto& cam : ctx.cams) with_label += cam.has_label[l] ? 1 : 0;
+  const size_t need = static_cast<size_t>(std::min(config.carving.min_cameras, with_label));
+  std::vector<std::vector<size_t>> kept;
+  for (auto& c : clusters) {
+    std::set<uint16_t> seen;
+    for (size_t i : c) seen.insert(carved[i].camera);
+    if (seen.size() >= need) kept.push_back(std::move(c));
+  }
+  return kept;
+}
+
+/// The cluster a continuing track follows: the one with a point nearest its predicted origin,
+/// within instances.track_gate; -1 when none.
+int trackedCluster(const CycleContext& ctx, const Track& tr,
+                   const std::vector<std::vector<size_t>>& clusters,
+                   const std::vector<CloudPoint>& carved) {
+  const EstimatorConfig& config = ctx.config;
+  if (!tr.continues(ctx.stamp_ns, config.tracking.max_gap)) return -1;
+  const Eigen::Vector3f pred =
+      tr.predict(ctx.stamp_ns, config.tracking.max_prediction).cast<float>();
+  size_t best_k = 0;
+  float best_d2 = std::numeric_limits<float>::infinity();
+  for (size_t k = 0; k < clusters.size(); ++k)
+    for (size_t i : clusters[k]) {
+      const float d2 = (carved[i].p_world - pred).squaredNorm();
+      if (d2 < best_d2) best_d2 = d2, best_k = k;
+    }
+  const double gate = config.instances.track_gate;
+  return best_d2 <= gate * gate ? static_cast<int>(best_k) : -1;
+}
+
+/// The label's candidate among the instances decided this cycle (`inst`; [0] is the track's
+/// when `tracked_first`): instances that fit this label's model compete, the other model's only
+/// when none does (the label is then corrected).
+Candidate chooseCandidate(const CycleContext& ctx, int l, std::vector<Candidate> inst,
+                          bool tracked_first, const std::vector<CloudPoint>& raw,
+                          std::vector<InstanceMemory>* memory) {
+  const EstimatorConfig& config = ctx.config;
+  const EndLabel detected = static_cast<EndLabel>(l);
+  bool any_native = false;
+  for (const Candidate& c : inst) any_native = any_native || (c.ok && c.fit.label == detected);
+  std::vector<InstanceFit> fits(inst.size());
+  for (size_t k = 0; k < inst.size(); ++k) {
+    const Candidate& c = inst[k];
+    fits[k] = {c.ok && (!any_native || c.fit.label == detected), c.fit.origin, c.fit.cost, {}};
+    if (fits[k].competes && config.instances.radius_difference > 0)
+      fits[k].radius = radiusOffset(ctx.models.models[static_cast<int>(c.fit.label)],
+                                    config.dims.tool_joint_od / 2, c.fit.origin, c.fit.z, c.pts,
+                                    c.eyes, c.fit.inlier_mask);
+  }
+  const InstanceChoice choice = chooseInstance(
+      memory, fits, tracked_first ? 0 : -1, ctx.stamp_ns,
+      [&](const Eigen::Vector3d& o, double radius) {
+        const Eigen::Vector3f of = o.cast<float>();
+        const float r2 = static_cast<float>(radius * radius);
+        size_t near = 0;
+        for (const auto& p : raw) near += (p.p_world - of).squaredNorm() <= r2 ? 1 : 0;
+        return near;
+      },
+      config.axis_fit.min_points, config.instances, labelName(detected));
+  if (choice.index >= 0) return std::move(inst[static_cast<size_t>(choice.index)]);
+  Candidate cd;
+  if (!choice.reason.empty()) {
+    cd.detected = detected;
+    cd.reason = choice.reason;
+    return cd;
+  }
+  cd = std::move(inst[0]);
+  if (inst.size() > 1)
+    cd.reason = "no instance fits (" + std::to_string(inst.size()) + "); the first: " + cd.reason;
+  return cd;
+}
+
+}  // namespace
+
+Candidate fitLabel(const CycleContext& ctx, int l, const std::vector<CloudPoint>& raw,
+                   const std::vector<CloudPoint>& carved, LabelState* state, LabelTiming* timing,
+                   uint32_t* instances) {
+  const EstimatorConfig& config = ctx.config;
+  Candidate cd;
+  cd.detected = static_cast<EndLabel>(l);
+  bool any_box = false;
+  for (const auto& cam : ctx.cams) any_box = any_box || cam.has_label[l];
+  if (!any_box) {
+    cd.reason = std::string("no ") + labelName(cd.detected) + " detection in any camera";
+    return cd;
+  }
+  if (carved.size() < config.axis_fit.min_points) {
+    std::ostringstream s;
+    s << raw.size() << " points cut out, " << carved.size()
+      << " after carving (< axis_fit.min_points = " << config.axis_fit.min_points << ")";
+    cd.reason = s.str();
+    return cd;
+  }
+  const auto t0 = Clock::now();
+  const std::vector<std::vector<size_t>> clusters = instanceClusters(ctx, l, carved);
+  auto pointsOf = [&](size_t k) {
+    std::vector<CloudPoint> p;
+    p.reserve(clusters[k].size());
+    for (size_t i : clusters[k]) p.push_back(carved[i]);
+    return p;
+  };
+  timing->segmentation_ms += msSince(t0);
+  *instances = static_cast<uint32_t>(clusters.size());
+  if (clusters.empty()) {
+    std::ostringstream s;
+    s << carved.size() << " points after carving, no cluster of axis_fit.min_points = "
+      << config.axis_fit.min_points << " from carving.min_cameras = "
+      << config.carving.min_cameras << " cameras (instances.cluster_tolerance = "
+      << config.instances.cluster_tolerance << " m)";
+    cd.reason = s.str();
+    return cd;
+  }
+  const int track_k = trackedCluster(ctx, state->track, clusters, carved);
+  // The instances decided this cycle: the track's (when its fit is not simply tracked: a
+  // periodic decision, or the track was lost) and the largest others.
+  std::vector<Candidate> inst;
+  if (track_k >= 0) {
+    Candidate c = InstanceFitter(ctx, l, pointsOf(static_cast<size_t>(track_k)))
+                      .fit(state->track, true, timing);
+    if (c.tracked) return c;
+    inst.push_back(std::move(c));
+  }
+  const size_t max_instances = static_cast<size_t>(config.instances.max_instances);
+  for (size_t k = 0; k < clusters.size() && inst.size() < max_instances; ++k) {
+    if (static_cast<int>(k) == track_k) continue;
+    inst.push_back(InstanceFitter(ctx, l, pointsOf(k)).fit(state->track, false, timing));
+  }
+  return chooseCandidate(ctx, l, std::move(inst), track_k >= 0, raw, &state->memory);
+}
+
+}  // namespace drill_pipe_pose

@@ -1,0 +1,33 @@
+#pragma once
+// Stage "instances" for one detected label: its carved points split into instances, the one its
+// track follows fitted first, the largest others decided, and the label's candidate chosen among
+// them (private to the estimator's sources).
+
+#include <cstdint>
+#include <vector>
+
+#include "candidate.hpp"
+#include "drill_pipe_pose/core/estimator/instances.hpp"
+#include "drill_pipe_pose/core/estimator/track.hpp"
+
+namespace drill_pipe_pose {
+
+/// What lives across cycles for one detected label.
+struct LabelState {
+  Track track;
+  std::vector<InstanceMemory> memory;  ///< what the decisions showed of each instance
+  /// Consecutive decisions whose fit took the other model against the label's last fit of its
+  /// own (a label correction waits for instances.min_decisions of them).
+  int flips = 0;
+};
+
+/// Label `label`'s candidate for this cycle from its cut-out (`raw`) and carved points [world]:
+/// a continuing track follows the instance at its prediction; otherwise the largest instances
+/// are decided and the best-fitting valid one chosen (chooseInstance, which updates
+/// state->memory). Reads state->track, writes state->memory only: the two labels run in
+/// parallel. `instances` receives the number of instances found.
+Candidate fitLabel(const CycleContext& ctx, int label, const std::vector<CloudPoint>& raw,
+                   const std::vector<CloudPoint>& carved, LabelState* state,
+                   LabelTiming* timing, uint32_t* instances);
+
+}  // namespace drill_pipe_pose

@@ -1,0 +1,184 @@
+// The cycle runner shared by the node and bench_estimator: input assembly from frames plus a
+// transform source, problems named per camera, the output policy (a pose repeated for at most
+// max_pose_age), and the reset when time jumps back. Simulator frames, fixed seed 23.
+#include <gtest/gtest.h>
+
+#include <map>
+#include <stdexcept>
+
+#include "drill_pipe_pose/core/conventions.hpp"
+#include "drill_pipe_pose/core/cycle_runner.hpp"
+#include "drill_pipe_pose/core/errors.hpp"
+#include "drill_pipe_pose/core/estimator/track.hpp"
+#include "drill_pipe_pose/sim/rig_simulator.hpp"
+
+using namespace drill_pipe_pose;
+
+namespace {
+
+constexpr uint32_t kSeed = 23;  // listed in docs/seeds.md
+
+/// The simulator's published transforms as a TransformSource.
+class SimTransforms : public TransformSource {
+ public:
+  explicit SimTransforms(const sim::RigSimulator& s) {
+    for (size_t i = 0; i < s.numCameras(); ++i) {
+      const std::string& cam = s.cameraName(i);
+      const Eigen::Isometry3d T_world_depth = s.publishedT_world_link(i) * s.T_link_depth(i);
+      known_[{"world", conventions::depthOpticalFrame(cam)}] = T_world_depth;
+      known_[{conventions::colorOpticalFrame(cam), conventions::depthOpticalFrame(cam)}] =
+          s.T_link_depth(i);
+    }
+  }
+  Eigen::Isometry3d lookup(const std::string& target, const std::string& source,
+                           int64_t) override {
+    auto it = known_.find({target, source});
+    if (it == known_.end()) throw std::runtime_error("no transform " + target + " <- " + source);
+    return it->second;
+  }
+
+ private:
+  std::map<std::pair<std::string, std::string>, Eigen::Isometry3d> known_;
+};
+
+std::unique_ptr<sim::RigSimulator> simulator() {
+  const std::string dir = DRILL_PIPE_POSE_SOURCE_DIR;
+  sim::SimulatorOptions opt;
+  opt.profile = "kinect_v2_calibrated";
+  opt.seed = kSeed;
+  opt.sensor_config_dir = dir + "/config/sensors";
+  opt.stamp_origin_ns = 1000000000;
+  return sim::loadScenario(dir + "/config/rigs/thesis_lab.yaml",
+                           dir + "/config/scenes/thesis_vertical.yaml", opt);
+}
+
+struct Fixture {
+  std::unique_ptr<sim::RigSimulator> sim = simulator();
+  SimTransforms tf{*sim};
+  CycleRunnerConfig config() const {
+    CycleRunnerConfig c;
+    for (size_t i = 0; i < sim->numCameras(); ++i) c.cameras.push_back(sim->cameraName(i));
+    return c;
+  }
+  EstimatorConfig estimator() const {
+    EstimatorConfig e;
+    e.work_zone.min = sim->workZone().min;
+    e.work_zone.max = sim->workZone().max;
+    return e;
+  }
+  /// Adds cycle k's frames (boxes removed when `blind`) and polls once every frame is in.
+  std::vector<CycleOutput> feed(CycleRunner& runner, int k, bool blind = false) {
+    for (size_t i = 0; i < sim->numCameras(); ++i) {
+      SensorFrameData f = sim->render(i, sim->captureTime(i, k), k).sensor_frame;
+      if (blind) f.boxes.clear();
+      const double arrival = f.stamp_ns * 1e-9 + 0.01;
+      runner.add(sim->cameraName(i), f.stamp_ns, arrival, [f] { return f; });
+    }
+    return runner.poll(sim->captureTime(0, k) + 0.02);
+  }
+};
+
+}  // namespace
+
+TEST(CycleRunner, RepeatsTheLastPoseForAtMostMaxPoseAge) {
+  Fixture fx;
+  CycleRunnerConfig rc = fx.config();
+  rc.max_pose_age = 0.1;  // three 30 Hz cycles
+  CycleRunner runner(rc, fx.estimator(), &fx.tf);
+  std::vector<CycleOutput> outs;
+  for (int k = 0; k < 10; ++k)
+    for (auto& o : fx.feed(runner, k)) outs.push_back(std::move(o));
+  for (int k = 10; k < 16; ++k)
+    for (auto& o : fx.feed(runner, k, true)) outs.push_back(std::move(o));
+  for (auto& o : runner.poll(1e12)) outs.push_back(std::move(o));
+  ASSERT_GE(outs.size(), 15u) << "seed " << kSeed;
+  // The last sighted cycle: a fresh pose.
+  int last_fresh = -1;
+  for (size_t c = 0; c < outs.size(); ++c)
+    if (outs[c].ends[0].fresh) last_fresh = static_cast<int>(c);
+  ASSERT_GE(last_fresh, 5) << "no fresh box-end pose (seed " << kSeed << ")";
+  const CycleOutput& seen = outs[static_cast<size_t>(last_fresh)];
+  for (size_t c = static_cast<size_t>(last_fresh) + 1; c < outs.size(); ++c) {
+    const PublishedEnd& p = outs[c].ends[0];
+    EXPECT_FALSE(p.fresh);
+    const double age = (outs[c].cycle.stamp_ns - seen.cycle.stamp_ns) * 1e-9;
+    EXPECT_NEAR(p.age, age, 1e-9);
+    EXPECT_EQ(p.valid, age <= rc.max_pose_age) << "cycle " << c << " age " << age;
+    if (p.valid) {
+      EXPECT_TRUE(p.estimate.T_world_end.isApprox(seen.ends[0].estimate.T_world_end));
+      EXPECT_NE(p.message.find("last pose repeated"), std::string::npos) << p.message;
+    } else {
+      EXPECT_NE(p.message.find("last pose too old"), std::string::npos) << p.message;
+    }
+  }
+  EXPECT_FALSE(outs.back().ends[0].valid);
+}
+
+TEST(CycleRunner, NamesTheCameraOfABadFrameAndOfAMissingTransform) {
+  Fixture fx;
+  CycleRunner runner(fx.config(), fx.estimator(), &fx.tf);
+  const std::string bad = fx.sim->cameraName(0), lost = fx.sim->cameraName(1);
+  for (size_t i = 0; i < fx.sim->numCameras(); ++i) {
+    SensorFrameData f = fx.sim->render(i, fx.sim->captureTime(i, 0), 0).sensor_frame;
+    if (fx.sim->cameraName(i) == lost) f.depth_frame_id = "nowhere";
+    const std::string cam = fx.sim->cameraName(i);
+    FrameLoader load = [f] { return f; };
+    if (cam == bad) load = []() -> SensorFrameData { fail("cam_x depth: 16UC3 is not a depth encoding"); };
+    runner.add(cam, f.stamp_ns, f.stamp_ns * 1e-9, load);
+  }
+  const auto outs = runner.poll(1e12);
+  ASSERT_EQ(outs.size(), 1u);
+  ASSERT_EQ(outs[0].problems.size(), 2u);
+  std::map<std::string, InputProblem> by_camera;
+  for (const auto& p : outs[0].problems) by_camera[p.camera] = p;
+  EXPECT_EQ(by_camera.at(bad).kind, InputProblem::Kind::kBadInput);
+  EXPECT_NE(by_camera.at(bad).message.find("16UC3"), std::string::npos);
+  EXPECT_EQ(by_camera.at(lost).kind, InputProblem::Kind::kTransform);
+  EXPECT_NE(by_camera.at(lost).message.find("nowhere"), std::string::npos)
+      << by_camera.at(lost).message;
+  EXPECT_EQ(outs[0].inputs.size(), fx.sim->numCameras() - 2);
+}
+
+TEST(CycleRunner, TimeJumpingBackResetsPosesAndBuffers) {
+  Fixture fx;
+  CycleRunner runner(fx.config(), fx.estimator(), &fx.tf);
+  for (int k = 60; k < 66; ++k) fx.feed(runner, k);
+  // A frame without boxes: without the reset, the last poses (of a later stamp) would repeat.
+  SensorFrameData f = fx.sim->render(0, fx.sim->captureTime(0, 0), 0).sensor_frame;
+  f.boxes.clear();
+  const AddResult r = runner.add(fx.sim->cameraName(0), f.stamp_ns, 1e6, [f] { return f; });
+  EXPECT_TRUE(r.time_jumped_back);
+  EXPECT_GT(r.jump_s, 1.5);
+  const auto outs = runner.poll(1e12);
+  ASSERT_EQ(outs.size(), 1u);
+  for (const auto& e : outs[0].ends) {
+    EXPECT_FALSE(e.valid) << e.message;
+    EXPECT_EQ(e.message.find("last pose"), std::string::npos) << e.message;
+  }
+}
+
+TEST(Track, ContinuesPredictsAndFollows) {
+  Track t;
+  EXPECT_FALSE(t.continues(1000, 0.5));
+  EXPECT_FALSE(t.recent(1000, 0.5));
+  TrackedFit f;
+  f.origin = Eigen::Vector3d(1, 2, 3);
+  t.follow(1000000000, f, 0.5, 0.05);
+  EXPECT_TRUE(t.valid);
+  EXPECT_EQ(t.cycles, 1);
+  EXPECT_TRUE(t.velocity.isZero());
+  f.origin = Eigen::Vector3d(1.01, 2, 3);
+  t.follow(1100000000, f, 0.5, 0.05);  // 0.1 s later, 1 cm: 0.1 m/s
+  EXPECT_NEAR(t.velocity.x(), 0.1, 1e-9);
+  EXPECT_TRUE(t.continues(1200000000, 0.5));
+  EXPECT_FALSE(t.continues(1100000000, 0.5)) << "a zero gap does not continue a track";
+  EXPECT_FALSE(t.continues(1700000000, 0.5)) << "a gap over max_gap ends it";
+  EXPECT_NEAR(t.predict(1200000000).x(), 1.02, 1e-9);
+  EXPECT_NEAR(t.predict(2100000000, 0.005).x(), 1.015, 1e-9) << "clamped to max_prediction";
+  f.origin = Eigen::Vector3d(2, 2, 3);  // a jump: the velocity restarts
+  t.follow(1200000000, f, 0.5, 0.05);
+  EXPECT_TRUE(t.velocity.isZero());
+  t.end();
+  EXPECT_FALSE(t.continues(1300000000, 0.5));
+  EXPECT_TRUE(t.recent(1300000000, 0.5)) << "an ended track still tells its last fit";
+}
