@@ -39,40 +39,15 @@ double wallNow() {
   return ros::WallTime::now().toSec();
 }
 
-struct NodeConfig {
-  std::vector<std::string> cameras;  ///< required: the sensor nodes to fuse
-  std::string world_frame = conventions::kDefaultWorldFrame;
-  std::array<std::string, kNumEnds> end_frames{{"box_end", "pin_end"}};
-  double max_pose_age = 0.2;  ///< [s] an end not seen for longer is reported invalid
-  double tf_timeout = 0.0;    ///< [s] wait for TF per lookup (0: only what is buffered)
-  FrameSyncConfig sync;
-};
-
-NodeConfig loadNodeConfig(const ros::NodeHandle& pnh) {
-  NodeConfig c;
-  readParam(pnh, "cameras", c.cameras);
-  if (c.cameras.empty())
-    fail("parameter ", pnh.resolveName("cameras"),
-         " is missing or empty: list the sensor nodes to fuse, e.g. [cam1, cam2]");
-  readParam(pnh, "world_frame", c.world_frame);
-  readParam(pnh, "box_end_frame", c.end_frames[0]);
-  readParam(pnh, "pin_end_frame", c.end_frames[1]);
-  readNumber(pnh, "max_pose_age", c.max_pose_age, 0.0);
-  readNumber(pnh, "tf_timeout", c.tf_timeout, 0.0);
-  readNumber(pnh, "sync/window", c.sync.window, 1e-4);
-  readNumber(pnh, "sync/max_wait", c.sync.max_wait, 0.0);
-  readNumber(pnh, "sync/camera_timeout", c.sync.camera_timeout, 1e-3);
-  readNumber(pnh, "sync/buffer_size", c.sync.buffer_size, 1.0);
-  return c;
-}
+using NodeConfig = EstimatorNodeConfig;  // core/estimator/estimator_params_table.hpp
 
 class PoseEstimatorNode {
  public:
   PoseEstimatorNode(ros::NodeHandle nh, ros::NodeHandle pnh)
       : nh_(nh),
         pnh_(pnh),
-        cfg_(loadNodeConfig(pnh)),
-        est_cfg_(loadEstimatorConfig(pnh)),
+        cfg_(loadEstimatorNodeConfig(pnh)),
+        est_cfg_(cfg_.estimator),
         estimator_(est_cfg_),
         sync_(cfg_.cameras, cfg_.sync),
         tf_listener_(tf_buffer_) {
