@@ -321,7 +321,7 @@ class PoseEstimatorNode {
       m.color.a = 0.7f;
       m.color.r = m.color.g = m.color.b = 0.85f;
       m.lifetime = ros::Duration(1.0);
-      const double z = kFrustumRange;
+      const double z = cfg_.debug_frustum_length;
       std::array<geometry_msgs::Point, 4> c;
       const double us[4] = {0, double(ci.width), double(ci.width), 0};
       const double vs[4] = {0, 0, double(ci.height), double(ci.height)};
@@ -381,7 +381,6 @@ class PoseEstimatorNode {
     marker_pub_.publish(ma);
   }
 
-  static constexpr double kFrustumRange = 1.5;  ///< [m] drawn length of the camera frustums
 
   void publishDiagnostics() {
     diagnostic_msgs::DiagnosticArray arr;

@@ -280,6 +280,8 @@ ParamTable<EstimatorNodeConfig> makeNodeTable() {
       P("sync/camera_timeout", sync.camera_timeout, "s", atLeast(1e-3),
         "silence after which a camera leaves the fusion (it rejoins with its next frame)"),
       P("sync/buffer_size", sync.buffer_size, "frames", atLeast(1), "frames kept per camera"),
+      P("debug/frustum_length", debug_frustum_length, "m", positive(),
+        "drawn length of each camera's colour frustum in debug/models"),
   };
   const auto est =
       nestParams<N>(estimatorParamTable(), "", [](auto& n) -> auto& { return n.estimator; });

@@ -28,6 +28,7 @@ struct EstimatorNodeConfig {
   std::array<std::string, kNumEnds> end_frames{{"box_end", "pin_end"}};  ///< TF child frames
   double max_pose_age = 0.2;  ///< [s] an end not seen for longer is reported invalid
   double tf_timeout = 0.0;    ///< [s] wait for TF per lookup (0: only what is buffered)
+  double debug_frustum_length = 1.5;  ///< [m] drawn length of the cameras' frustums (debug/models)
   FrameSyncConfig sync;
   EstimatorConfig estimator;
 };
