@@ -55,16 +55,12 @@ std::unique_ptr<sim::RigSimulator> simulator() {
 struct Fixture {
   std::unique_ptr<sim::RigSimulator> sim = simulator();
   SimTransforms tf{*sim};
-  CycleRunnerConfig config() const {
-    CycleRunnerConfig c;
+  EstimatorNodeConfig config() const {
+    EstimatorNodeConfig c;
     for (size_t i = 0; i < sim->numCameras(); ++i) c.cameras.push_back(sim->cameraName(i));
+    c.estimator.work_zone.min = sim->workZone().min;
+    c.estimator.work_zone.max = sim->workZone().max;
     return c;
-  }
-  EstimatorConfig estimator() const {
-    EstimatorConfig e;
-    e.work_zone.min = sim->workZone().min;
-    e.work_zone.max = sim->workZone().max;
-    return e;
   }
   /// Adds cycle k's frames (boxes removed when `blind`) and polls once every frame is in.
   std::vector<CycleOutput> feed(CycleRunner& runner, int k, bool blind = false) {
@@ -82,9 +78,9 @@ struct Fixture {
 
 TEST(CycleRunner, RepeatsTheLastPoseForAtMostMaxPoseAge) {
   Fixture fx;
-  CycleRunnerConfig rc = fx.config();
+  EstimatorNodeConfig rc = fx.config();
   rc.max_pose_age = 0.1;  // three 30 Hz cycles
-  CycleRunner runner(rc, fx.estimator(), &fx.tf);
+  CycleRunner runner(rc, &fx.tf);
   std::vector<CycleOutput> outs;
   for (int k = 0; k < 10; ++k)
     for (auto& o : fx.feed(runner, k)) outs.push_back(std::move(o));
@@ -116,7 +112,7 @@ TEST(CycleRunner, RepeatsTheLastPoseForAtMostMaxPoseAge) {
 
 TEST(CycleRunner, NamesTheCameraOfABadFrameAndOfAMissingTransform) {
   Fixture fx;
-  CycleRunner runner(fx.config(), fx.estimator(), &fx.tf);
+  CycleRunner runner(fx.config(), &fx.tf);
   const std::string bad = fx.sim->cameraName(0), lost = fx.sim->cameraName(1);
   for (size_t i = 0; i < fx.sim->numCameras(); ++i) {
     SensorFrameData f = fx.sim->render(i, fx.sim->captureTime(i, 0), 0).sensor_frame;
@@ -141,7 +137,7 @@ TEST(CycleRunner, NamesTheCameraOfABadFrameAndOfAMissingTransform) {
 
 TEST(CycleRunner, TimeJumpingBackResetsPosesAndBuffers) {
   Fixture fx;
-  CycleRunner runner(fx.config(), fx.estimator(), &fx.tf);
+  CycleRunner runner(fx.config(), &fx.tf);
   for (int k = 60; k < 66; ++k) fx.feed(runner, k);
   // A frame without boxes: without the reset, the last poses (of a later stamp) would repeat.
   SensorFrameData f = fx.sim->render(0, fx.sim->captureTime(0, 0), 0).sensor_frame;

@@ -6,15 +6,19 @@
 
 namespace drill_pipe_pose {
 
-CycleRunner::CycleRunner(const CycleRunnerConfig& config, const EstimatorConfig& estimator,
-                         TransformSource* transforms)
-    : config_(config),
-      estimator_(estimator),
+namespace {
+const EstimatorNodeConfig& validated(const EstimatorNodeConfig& config) {
+  validateEstimatorNodeConfig(config);
+  return config;
+}
+}  // namespace
+
+CycleRunner::CycleRunner(const EstimatorNodeConfig& config, TransformSource* transforms)
+    : config_(validated(config)),
+      estimator_(config.estimator),
       sync_(config.cameras, config.sync),
       transforms_(transforms) {
-  if (config_.cameras.empty()) fail("cycle runner: no camera configured");
   if (!transforms_) fail("cycle runner: no transform source");
-  if (!(config_.max_pose_age >= 0.0)) fail("cycle runner: max_pose_age must be >= 0");
 }
 
 void CycleRunner::reset() {

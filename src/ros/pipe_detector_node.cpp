@@ -4,27 +4,7 @@
 // drill_pipe_pose/SensorFrame per colour frame on <cam>/sensor_frame, stamped with the colour
 // image's capture time (never the publish time).
 //
-// Parameters (private; defaults in brackets):
-//   camera (string, required)        <cam>: topics <cam>/qhd/..., <cam>/sd/..., <cam>/sensor_frame
-//   model [$(find drill_pipe_pose)/models/detector/pipe_yolo.onnx]   .onnx or Darknet .weights
-//   darknet_cfg [""]                 Darknet .cfg (empty: model path with .cfg)
-//   labels [[box_end, pin_end]]      class names in model order (box_end, pin_end or ignore)
-//   labels_file [""]                 one class name per line; overrides labels when set
-//   output_format [auto]             auto | grid | yolov5 | yolov8 | darknet
-//   input_width [960], input_height [544]   network input [px], multiples of 32
-//   allow_upscale [false]            enlarge a roi smaller than the input
-//   confidence_threshold [0.25], nms_threshold [0.45], cross_class_nms_threshold [0.7],
-//   max_candidates [1000] (kept before NMS)
-//   max_boxes_per_class [1]          <= 0: unlimited
-//   roi [[]]                         [x, y, width, height] of the colour image [px]; [] = whole
-//   crop_depth [false]               send depth cropped to the boxes' frustum (depth_info.roi)
-//   crop_margin_px [12.0], crop_min_range [0.3], crop_max_range [12.0]   (core DepthCropConfig)
-//   sync_slop [0.02]                 [s] max colour/depth stamp difference
-//   queue_size [2]                   per-topic subscriber queue (small: always the latest frame)
-//   max_rate [0.0]                   [Hz] process at most this many frames per second of capture
-//                                    time (the first of each 1/max_rate slot); 0: all
-//   num_threads [1]                  OpenCV threads for inference
-//   tf_timeout [0.05]                [s] wait for <cam>_rgb_optical_frame <- <cam>_ir_optical_frame
+// Parameters (private): the table in core/detector/detector_node_params.hpp (README lists it).
 // Publishes <cam>/sensor_frame and ~debug_image (bgr8, annotated; only while subscribed).
 #include <drill_pipe_pose/SensorFrame.h>
 #include <message_filters/subscriber.h>
@@ -41,11 +21,12 @@
 #include <optional>
 
 #include "drill_pipe_pose/core/depth_crop.hpp"
+#include "drill_pipe_pose/core/detector/detector_node_params.hpp"
 #include "drill_pipe_pose/core/detector/yolo_detector.hpp"
 #include "drill_pipe_pose/core/errors.hpp"
 #include "drill_pipe_pose/core/frame_sync.hpp"
 #include "drill_pipe_pose/ros/conversions.hpp"
-#include "drill_pipe_pose/ros/params.hpp"
+#include "drill_pipe_pose/ros/param_loader.hpp"
 
 namespace drill_pipe_pose {
 namespace {
@@ -60,31 +41,17 @@ using SyncPolicy =
 class PipeDetectorNode {
  public:
   PipeDetectorNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh_(pnh), tf_(tf_buffer_) {
-    readParam(pnh, "camera", camera_);
+    PipeDetectorNodeConfig p;  // the parameter table: core/detector/detector_node_params.hpp
+    loadRosParams(pnh, pipeDetectorParamTable(), &p);
+    camera_ = p.camera;
     if (camera_.empty())
       fail("parameter ", pnh.resolveName("camera"),
            " is missing: the sensor node's name <cam> (topics <cam>/qhd/image_color_rect, ...)");
-    detector::DetectorConfig c;
-    c.model = ros::package::getPath("drill_pipe_pose") + "/models/detector/pipe_yolo.onnx";
-    readParam(pnh, "model", c.model);
-    readParam(pnh, "darknet_cfg", c.darknet_cfg);
-    readParam(pnh, "labels", c.labels);
-    std::string labels_file, format = "auto";
-    readParam(pnh, "labels_file", labels_file);
-    if (!labels_file.empty()) c.labels = detector::readLabelsFile(labels_file);
-    readParam(pnh, "output_format", format);
-    c.format = detector::parseOutputFormat(format, "parameter " + pnh.resolveName("output_format"));
-    readParam(pnh, "input_width", c.input_width);
-    readParam(pnh, "input_height", c.input_height);
-    readParam(pnh, "allow_upscale", c.allow_upscale);
-    readNumber(pnh, "confidence_threshold", c.confidence_threshold, 1e-6);
-    readNumber(pnh, "nms_threshold", c.nms_threshold, 1e-6);
-    readNumber(pnh, "max_candidates", c.max_candidates, 1.0);
-    readNumber(pnh, "cross_class_nms_threshold", c.cross_class_nms_threshold, 0.0);
-    readParam(pnh, "max_boxes_per_class", c.max_boxes_per_class);
-    readParam(pnh, "num_threads", c.num_threads);
-    std::vector<double> roi;
-    readParam(pnh, "roi", roi);
+    detector::DetectorConfig c = p.detector;
+    if (c.model.empty())
+      c.model = ros::package::getPath("drill_pipe_pose") + "/models/detector/pipe_yolo.onnx";
+    if (!p.labels_file.empty()) c.labels = detector::readLabelsFile(p.labels_file);
+    const std::vector<double>& roi = p.roi;
     roi_param_ = "parameter " + pnh.resolveName("roi");
     if (!roi.empty()) {
       if (roi.size() != 4)
@@ -103,18 +70,15 @@ class PipeDetectorNode {
         fail(roi_param_, " = [", roi[0], ", ", roi[1], ", ", roi[2], ", ", roi[3],
              "]: width and height must be > 0");
     }
-    readParam(pnh, "crop_depth", crop_depth_);
-    readNumber(pnh, "crop_margin_px", crop_.margin_px, 0.0);
-    readNumber(pnh, "crop_min_range", crop_.min_range, 0.0);
-    readNumber(pnh, "crop_max_range", crop_.max_range, 0.0);
-    double slop = 0.02, tf_timeout = 0.05;
-    int queue = 2;
-    readNumber(pnh, "sync_slop", slop, 0.0);
-    readParam(pnh, "queue_size", queue);
-    readNumber(pnh, "max_rate", max_rate_, 0.0);
-    readNumber(pnh, "tf_timeout", tf_timeout, 0.0);
-    tf_timeout_ = ros::Duration(tf_timeout);
-    queue = std::max(queue, 1);
+    crop_depth_ = p.crop_depth;
+    crop_ = p.crop;
+    const double slop = p.sync_slop;
+    max_rate_ = p.max_rate;
+    tf_timeout_ = ros::Duration(p.tf_timeout);
+    const int queue = std::max(p.queue_size, 1);
+    for (const auto& key : unknownRosParams(pnh, paramNames(pipeDetectorParamTable())))
+      ROS_WARN("pipe_detector: parameter %s is not one of the node's parameters (misspelt?)",
+               key.c_str());
 
     detector_.emplace(c);  // loads and checks the model: InputError names the file
 

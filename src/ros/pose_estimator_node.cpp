@@ -39,44 +39,19 @@ double wallNow() {
   return ros::WallTime::now().toSec();
 }
 
-struct NodeConfig {
-  CycleRunnerConfig runner;  ///< cameras (required), world frame, max_pose_age, sync
-  std::array<std::string, kNumEnds> end_frames{{"box_end", "pin_end"}};
-  double tf_timeout = 0.0;  ///< [s] wait for TF per lookup (0: only what is buffered)
-};
-
-NodeConfig loadNodeConfig(const ros::NodeHandle& pnh) {
-  NodeConfig c;
-  CycleRunnerConfig& r = c.runner;
-  r.world_frame = conventions::kDefaultWorldFrame;
-  readParam(pnh, "cameras", r.cameras);
-  if (r.cameras.empty())
-    fail("parameter ", pnh.resolveName("cameras"),
-         " is missing or empty: list the sensor nodes to fuse, e.g. [cam1, cam2]");
-  readParam(pnh, "world_frame", r.world_frame);
-  readParam(pnh, "box_end_frame", c.end_frames[0]);
-  readParam(pnh, "pin_end_frame", c.end_frames[1]);
-  readNumber(pnh, "max_pose_age", r.max_pose_age, 0.0);
-  readNumber(pnh, "tf_timeout", c.tf_timeout, 0.0);
-  readNumber(pnh, "sync/window", r.sync.window, 1e-4);
-  readNumber(pnh, "sync/max_wait", r.sync.max_wait, 0.0);
-  readNumber(pnh, "sync/camera_timeout", r.sync.camera_timeout, 1e-3);
-  readNumber(pnh, "sync/buffer_size", r.sync.buffer_size, 1.0);
-  return c;
-}
+using NodeConfig = EstimatorNodeConfig;  // core/estimator/estimator_params_table.hpp
 
 class PoseEstimatorNode {
  public:
   PoseEstimatorNode(ros::NodeHandle nh, ros::NodeHandle pnh)
       : nh_(nh),
         pnh_(pnh),
-        cfg_(loadNodeConfig(pnh)),
-        est_cfg_(loadEstimatorConfig(pnh)),
+        cfg_(loadEstimatorNodeConfig(pnh)),
         tf_listener_(tf_buffer_),
         tf_(&tf_buffer_, cfg_.tf_timeout),
-        runner_(cfg_.runner, est_cfg_, &tf_) {
+        runner_(cfg_, &tf_) {
     static_tf_sub_ = nh_.subscribe("/tf_static", 100, &PoseEstimatorNode::onStaticTf, this);
-    for (const auto& cam : cfg_.runner.cameras) {
+    for (const auto& cam : cfg_.cameras) {
       const std::string topic = conventions::sensorFrameTopic(cam);
       subs_.push_back(nh_.subscribe<SensorFrame>(
           topic, 10, [this, cam](const SensorFrameConstPtr& m) { onFrame(cam, m); },
@@ -97,14 +72,14 @@ class PoseEstimatorNode {
     diag_timer_ = nh_.createWallTimer(ros::WallDuration(1.0),
                                       [this](const ros::WallTimerEvent&) { publishDiagnostics(); });
     std::string cams;
-    for (const auto& c : cfg_.runner.cameras) cams += " " + c;
+    for (const auto& c : cfg_.cameras) cams += " " + c;
     ROS_INFO(
         "pose_estimator: fusing %zu camera(s):%s; world frame '%s'; sync window %.1f ms, "
         "max wait %.1f ms, camera timeout %.2f s; max pose age %.2f s",
-        cfg_.runner.cameras.size(), cams.c_str(), cfg_.runner.world_frame.c_str(),
-        cfg_.runner.sync.window * 1e3, cfg_.runner.sync.max_wait * 1e3,
-        cfg_.runner.sync.camera_timeout, cfg_.runner.max_pose_age);
-    ROS_INFO("pose_estimator: %s", describeEstimatorConfig(est_cfg_).c_str());
+        cfg_.cameras.size(), cams.c_str(), cfg_.world_frame.c_str(),
+        cfg_.sync.window * 1e3, cfg_.sync.max_wait * 1e3,
+        cfg_.sync.camera_timeout, cfg_.max_pose_age);
+    ROS_INFO("pose_estimator: %s", describeEstimatorConfig(cfg_.estimator).c_str());
   }
 
  private:
@@ -158,10 +133,10 @@ class PoseEstimatorNode {
     const ros::Time stamp = fromNs(out.cycle.stamp_ns);
     PipeEnds ends;
     ends.header.stamp = stamp;
-    ends.header.frame_id = cfg_.runner.world_frame;
+    ends.header.frame_id = cfg_.world_frame;
     EstimatorStatus status;
     status.header = ends.header;
-    status.cameras_configured = cfg_.runner.cameras;
+    status.cameras_configured = cfg_.cameras;
     status.cameras_live = runner_.sync().liveCameras();
     status.cameras_used = r.cameras_used;
     std::string message;
@@ -210,12 +185,12 @@ class PoseEstimatorNode {
   void publishPose(int e, const EndEstimate& est, const ros::Time& stamp) {
     geometry_msgs::PoseWithCovarianceStamped p;
     p.header.stamp = stamp;
-    p.header.frame_id = cfg_.runner.world_frame;
+    p.header.frame_id = cfg_.world_frame;
     p.pose.pose = tf2::toMsg(est.T_world_end);
     for (int i = 0; i < 36; ++i) p.pose.covariance[i] = est.covariance(i / 6, i % 6);
     pose_pubs_[e].publish(p);
     tf_broadcaster_.sendTransform(
-        toTransformMsg(est.T_world_end, cfg_.runner.world_frame, cfg_.end_frames[e], stamp));
+        toTransformMsg(est.T_world_end, cfg_.world_frame, cfg_.end_frames[e], stamp));
   }
 
   sensor_msgs::PointCloud2 cloudMsg(
@@ -223,7 +198,7 @@ class PoseEstimatorNode {
       const ros::Time& stamp) {
     sensor_msgs::PointCloud2 c;
     c.header.stamp = stamp;
-    c.header.frame_id = cfg_.runner.world_frame;
+    c.header.frame_id = cfg_.world_frame;
     sensor_msgs::PointCloud2Modifier mod(c);
     mod.setPointCloud2FieldsByString(2, "xyz", "rgb");
     size_t n = 0;
@@ -252,7 +227,7 @@ class PoseEstimatorNode {
     for (int e = 0; e < kNumEnds; ++e) {
       visualization_msgs::Marker m;
       m.header.stamp = stamp;
-      m.header.frame_id = cfg_.runner.world_frame;
+      m.header.frame_id = cfg_.world_frame;
       m.ns = labelName(static_cast<EndLabel>(e));
       m.id = e;
       m.type = visualization_msgs::Marker::MESH_RESOURCE;
@@ -287,7 +262,7 @@ class PoseEstimatorNode {
       m.color.a = 0.7f;
       m.color.r = m.color.g = m.color.b = 0.85f;
       m.lifetime = ros::Duration(1.0);
-      const double z = kFrustumRange;
+      const double z = cfg_.debug_frustum_length;
       std::array<geometry_msgs::Point, 4> c;
       const double us[4] = {0, double(ci.width), double(ci.width), 0};
       const double vs[4] = {0, 0, double(ci.height), double(ci.height)};
@@ -317,15 +292,15 @@ class PoseEstimatorNode {
     // Status text above the work zone: each end's state in a line.
     visualization_msgs::Marker text;
     text.header.stamp = stamp;
-    text.header.frame_id = cfg_.runner.world_frame;
+    text.header.frame_id = cfg_.world_frame;
     text.ns = "status";
     text.type = visualization_msgs::Marker::TEXT_VIEW_FACING;
     text.action = visualization_msgs::Marker::ADD;
-    const Eigen::Vector3d top = 0.5 * (est_cfg_.work_zone.min + est_cfg_.work_zone.max);
-    const bool bounded = (est_cfg_.work_zone.max - est_cfg_.work_zone.min).maxCoeff() < 100.0;
+    const Eigen::Vector3d top = 0.5 * (cfg_.estimator.work_zone.min + cfg_.estimator.work_zone.max);
+    const bool bounded = (cfg_.estimator.work_zone.max - cfg_.estimator.work_zone.min).maxCoeff() < 100.0;
     text.pose.position.x = bounded ? top.x() : 0.0;
     text.pose.position.y = bounded ? top.y() : 0.0;
-    text.pose.position.z = bounded ? est_cfg_.work_zone.max.z() : 3.0;
+    text.pose.position.z = bounded ? cfg_.estimator.work_zone.max.z() : 3.0;
     text.pose.orientation.w = 1.0;
     text.scale.z = 0.2;
     text.color.a = text.color.r = text.color.g = text.color.b = 1.0f;
@@ -341,19 +316,18 @@ class PoseEstimatorNode {
       text.text += line;
     }
     std::snprintf(line, sizeof(line), "%zu/%zu cameras, %.1f ms", r.cameras_used.size(),
-                  cfg_.runner.cameras.size(), r.timing.total_ms);
+                  cfg_.cameras.size(), r.timing.total_ms);
     text.text += line;
     ma.markers.push_back(text);
     marker_pub_.publish(ma);
   }
 
-  static constexpr double kFrustumRange = 1.5;  ///< [m] drawn length of the camera frustums
 
   void publishDiagnostics() {
     diagnostic_msgs::DiagnosticArray arr;
     arr.header.stamp = ros::Time::now();
     const double now = wallNow();
-    for (const auto& cam : cfg_.runner.cameras) {
+    for (const auto& cam : cfg_.cameras) {
       const CameraSyncStats& st = runner_.sync().stats().at(cam);
       Counters& cnt = counters_[cam];
       diagnostic_msgs::DiagnosticStatus s;
@@ -417,7 +391,6 @@ class PoseEstimatorNode {
 
   ros::NodeHandle nh_, pnh_;
   NodeConfig cfg_;
-  EstimatorConfig est_cfg_;
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
   TfTransforms tf_;  ///< /tf_static (onStaticTf), then tf_buffer_

@@ -1,11 +1,5 @@
 // rig_simulator: publishes what a simulated rig's sensor nodes would publish, live, with ground
-// truth. Parameters (private):
-//   rig (path, default $(find drill_pipe_pose)/config/rigs/thesis_lab.yaml), scene (path,
-//   required), profile (ideal | kinect_v2_calibrated | kinect_v2_field), seed, simulated_detection
-//   (true: <cam>/sensor_frame with simulated boxes), color (false: kinect2_bridge-style colour +
-//   depth topics too, for a real detector), crop (false: crop SensorFrame depth to the boxes), rate
-//   (1.0: simulation seconds per wall second), publish_clock (false: stamp with wall time; true:
-//   publish /clock from simulation time, for use_sim_time), duration (0: forever).
+// truth. Parameters (private): the table in sim/simulator_node_params.hpp (README lists it).
 // When rendering cannot keep up with `rate`, simulation time (and /clock) slows down to what it
 // can render (with publish_clock), or frames are skipped with a throttled warning (without).
 #include <drill_pipe_pose/SensorFrame.h>
@@ -17,9 +11,11 @@
 #include <cstdio>
 
 #include "drill_pipe_pose/core/depth_crop.hpp"
+#include "drill_pipe_pose/core/errors.hpp"
 #include "drill_pipe_pose/ros/conversions.hpp"
-#include "drill_pipe_pose/ros/params.hpp"
+#include "drill_pipe_pose/ros/param_loader.hpp"
 #include "drill_pipe_pose/ros/sim_messages.hpp"
+#include "drill_pipe_pose/sim/simulator_node_params.hpp"
 
 namespace drill_pipe_pose {
 namespace {
@@ -28,25 +24,24 @@ class RigSimulatorNode {
  public:
   explicit RigSimulatorNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh) {
     const std::string pkg = ros::package::getPath("drill_pipe_pose");
-    std::string rig = pkg + "/config/rigs/thesis_lab.yaml", scene;
-    sim::SimulatorOptions opt;
+    RigSimulatorNodeConfig p;  // the parameter table: sim/simulator_node_params.hpp
+    loadRosParams(pnh, rigSimulatorParamTable(), &p);
+    const std::string rig = p.rig.empty() ? pkg + "/config/rigs/thesis_lab.yaml" : p.rig;
+    const std::string& scene = p.scene;
+    sim::SimulatorOptions opt = p.options;
     opt.sensor_config_dir = pkg + "/config/sensors";
-    int seed = 1;
-    readParam(pnh, "rig", rig);
-    readParam(pnh, "scene", scene);
-    readParam(pnh, "profile", opt.profile);
-    readParam(pnh, "seed", seed);
-    readParam(pnh, "simulated_detection", opt.simulated_detection);
-    readParam(pnh, "color", opt.color);
-    readParam(pnh, "crop", crop_);
-    readNumber(pnh, "rate", rate_, 1e-3);
-    readParam(pnh, "publish_clock", publish_clock_);
-    readNumber(pnh, "duration", duration_, 0.0);
+    const int seed = static_cast<int>(opt.seed);
+    crop_ = p.crop;
+    rate_ = p.rate;
+    publish_clock_ = p.publish_clock;
+    duration_ = p.duration;
     if (scene.empty())
       fail("parameter ", pnh.resolveName("scene"),
            " is missing: a scene file, e.g. $(find "
            "drill_pipe_pose)/config/scenes/thesis_vertical.yaml");
-    opt.seed = static_cast<uint32_t>(seed);
+    for (const auto& key : unknownRosParams(pnh, paramNames(rigSimulatorParamTable())))
+      ROS_WARN("rig_simulator: parameter %s is not one of the node's parameters (misspelt?)",
+               key.c_str());
     opt.stamp_origin_ns = publish_clock_ ? 1000000000LL : toNs(ros::Time::now());
     sim_ = sim::loadScenario(rig, scene, opt);
 

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "drill_pipe_pose/core/estimator/estimator_params_table.hpp"
 #include "drill_pipe_pose/core/estimator/pose_estimator.hpp"
 #include "drill_pipe_pose/core/frame_sync.hpp"
 #include "drill_pipe_pose/core/pipe_end_frame.hpp"
@@ -34,13 +35,6 @@ class TransformSource {
 /// A waiting frame's content, converted only when the frame enters a cycle (a frame the
 /// synchroniser drops is never converted). Throws InputError naming the camera and the field.
 using FrameLoader = std::function<SensorFrameData()>;
-
-struct CycleRunnerConfig {
-  std::vector<std::string> cameras;  ///< the sensor nodes to fuse
-  std::string world_frame = "world";
-  double max_pose_age = 0.2;  ///< [s] an end not seen for longer is reported invalid
-  FrameSyncConfig sync;
-};
 
 /// A frame that could not enter its cycle.
 struct InputProblem {
@@ -79,9 +73,9 @@ struct AddResult {
 
 class CycleRunner {
  public:
-  /// Validates the estimator configuration (throws InputError naming the key).
-  CycleRunner(const CycleRunnerConfig& config, const EstimatorConfig& estimator,
-              TransformSource* transforms);
+  /// The node's configuration (the same for node and bench: cameras, world_frame, max_pose_age,
+  /// sync/..., estimator); validates it (throws InputError naming the key).
+  CycleRunner(const EstimatorNodeConfig& config, TransformSource* transforms);
 
   /// A frame of `camera` captured at stamp_ns [ns] arrived at `arrival` [s, arrival clock].
   AddResult add(const std::string& camera, int64_t stamp_ns, double arrival, FrameLoader load);
@@ -91,8 +85,7 @@ class CycleRunner {
   void reset();
 
   const FrameSynchronizer& sync() const { return sync_; }
-  const CycleRunnerConfig& config() const { return config_; }
-  const EstimatorConfig& estimatorConfig() const { return estimator_.config(); }
+  const EstimatorNodeConfig& config() const { return config_; }
 
  private:
   struct LastPose {
@@ -106,7 +99,7 @@ class CycleRunner {
   /// The output policy for one end (see the file comment).
   PublishedEnd publishEnd(int e, const EndEstimate& fresh, int64_t stamp_ns);
 
-  CycleRunnerConfig config_;
+  EstimatorNodeConfig config_;
   PoseEstimator estimator_;
   FrameSynchronizer sync_;
   TransformSource* transforms_;

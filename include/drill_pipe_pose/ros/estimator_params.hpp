@@ -1,18 +1,22 @@
 #pragma once
-// EstimatorConfig from ROS parameters (the node's private namespace). Keys mirror the struct:
-// method, work_zone/min, work_zone/max, tool_joint/<dimension>, cutout/<field>, carving/<field>,
-// axis_fit/<field>, profile_fit/<field>, noise/<field>, covariance/<field>, baseline/<field>.
+// EstimatorConfig / EstimatorNodeConfig from ROS parameters (the node's private namespace), through
+// the parameter table (core/estimator/estimator_params_table.hpp): every row is loadable, keys are
+// the rows' names (carving/vote_fraction, work_zone/min, ...).
 
 #include <ros/node_handle.h>
 
 #include <string>
 
-#include "drill_pipe_pose/core/estimator/estimator_config.hpp"
+#include "drill_pipe_pose/core/estimator/estimator_params_table.hpp"
 
 namespace drill_pipe_pose {
 
 /// Reads and validates the configuration; throws InputError naming the parameter.
 EstimatorConfig loadEstimatorConfig(const ros::NodeHandle& pnh);
+
+/// The node's whole configuration (cameras, frames, sync/..., and the estimator's), validated;
+/// throws InputError naming the parameter; warns about keys in the namespace that no row has.
+EstimatorNodeConfig loadEstimatorNodeConfig(const ros::NodeHandle& pnh);
 
 /// One line per setting, for the start-up log.
 std::string describeEstimatorConfig(const EstimatorConfig& config);

@@ -1,6 +1,9 @@
 #pragma once
 // Configuration of the ROS-free pose estimator (issue 4). Nested structs with defaults; units in
-// the comments. The ROS node fills this from parameters; tests and benchmarks fill it directly.
+// the comments. These initialisers are the one place the defaults live: they are the
+// pose_estimator node's defaults too. Every field has one row in the parameter table
+// (estimator_params_table.hpp) giving its key, unit, range and doc, from which the node's loader,
+// validateConfig, the tools' --config / --param and the README's parameter table follow.
 
 #include <Eigen/Core>
 #include <cstdint>
@@ -25,8 +28,9 @@ struct EstimatorConfig {
   EstimatorMethod method = EstimatorMethod::kOurs;
   /// Threads of a cycle: 1 runs it on the calling thread; 2 or more fit the two labels in
   /// parallel, and within a full decision the two models' hypotheses and, in the refinement, the
-  /// free and locked fits. The results are the same either way.
-  int threads = 1;
+  /// free and locked fits. The results are the same either way. 2: the node's default (a cycle's
+  /// independent fits on two cores); set 1 for single-threaded timing.
+  int threads = 2;
 
   /// Nominal tool-joint geometry the models are built from [m, deg].
   ToolJointDimensions dims;
@@ -300,7 +304,8 @@ struct EstimatorConfig {
   } baseline;
 };
 
-/// Checks ranges and consistency; throws InputError naming the key (e.g. "carving.min_cameras").
+/// Checks every field against its range in the parameter table and the checks across fields
+/// (estimator_config.cpp); throws InputError naming the key (e.g. "carving/min_cameras").
 void validateConfig(const EstimatorConfig& config);
 
 }  // namespace drill_pipe_pose

@@ -1,0 +1,34 @@
+#pragma once
+// The pipe_detector node's parameter table (core/param_table.hpp): what the node reads, with
+// defaults in the struct below (and in detector::DetectorConfig / DepthCropConfig). The node's
+// loader and the README's pipe_detector table (checked by a test) come from it.
+
+#include <string>
+#include <vector>
+
+#include "drill_pipe_pose/core/depth_crop.hpp"
+#include "drill_pipe_pose/core/detector/yolo_detector.hpp"
+#include "drill_pipe_pose/core/param_table.hpp"
+
+namespace drill_pipe_pose {
+
+struct PipeDetectorNodeConfig {
+  std::string camera;  ///< required: <cam> of the topics
+  /// The network. model "" (default) is the package's models/detector/pipe_yolo.onnx.
+  detector::DetectorConfig detector;
+  std::string labels_file;  ///< one class name per line; overrides detector.labels when set
+  std::vector<double> roi;  ///< [x, y, width, height] of the colour image [px]; empty: whole
+  bool crop_depth = false;  ///< send depth cropped to the boxes' frustum
+  DepthCropConfig crop;
+  double sync_slop = 0.02;  ///< [s] max colour/depth stamp difference
+  int queue_size = 2;       ///< per-topic subscriber queue
+  double max_rate = 0.0;    ///< [Hz] of capture time; 0: every frame
+  double tf_timeout = 0.05;  ///< [s]
+};
+
+const ParamTable<PipeDetectorNodeConfig>& pipeDetectorParamTable();
+
+/// The README's pipe_detector parameter table (Markdown).
+std::string pipeDetectorParamsMarkdown();
+
+}  // namespace drill_pipe_pose
