@@ -93,11 +93,10 @@ std::string str(const T& v) {
 template <class T, class Set>
 CLI::Option* addOverride(CLI::App& app, BenchOptions& o, const std::string& name, const T& def,
                          const std::string& description, Set set) {
-  return app
-      .add_option_function<T>(
-          name, [&o, set](const T& v) { o.overrides.push_back([v, set](EstimatorConfig& c) { set(c, v); }); },
-          description)
-      ->default_str(str(def));
+  auto given = [&o, set](const T& v) {
+    o.overrides.push_back([v, set](EstimatorConfig& c) { set(c, v); });
+  };
+  return app.add_option_function<T>(name, given, description)->default_str(str(def));
 }
 
 /// Adds an estimator flag `name` that applies `set` when given.

@@ -26,7 +26,8 @@ int main(int argc, char** argv) {
   app.add_option("--spacing", spacing, "[m] point spacing of the sampled clouds")
       ->capture_default_str()
       ->check(CLI::Range(1e-4, 0.1));
-  app.add_flag("--threads", dims.threads, "model the thread ridges (4 TPI) on the pin and in the box");
+  app.add_flag("--threads", dims.threads,
+               "model the thread ridges (4 TPI) on the pin and in the box");
   drill_pipe_pose::tools::parseOrExit(app, argc, argv);
   try {
     for (auto end : {drill_pipe_pose::EndLabel::kBoxEnd, drill_pipe_pose::EndLabel::kPinEnd}) {

@@ -99,7 +99,8 @@ Options parseArgs(int argc, char** argv) {
       ->check(CLI::ExistingDirectory);
   app.add_option("--cameras", cameras, "only these cameras, comma-separated (default: all)")
       ->option_text("cam1,cam2");
-  app.add_option("--profile", o.profile, "sensor profile: ideal|kinect_v2_calibrated|kinect_v2_field")
+  app.add_option("--profile", o.profile,
+                 "sensor profile: ideal|kinect_v2_calibrated|kinect_v2_field")
       ->capture_default_str()
       ->check(tools::throwingCheck("PROFILE", [](const std::string& v) { sim::sensorProfile(v); }));
   app.add_option("--split", o.split, "dataset split the images go to (train, val, test, ...)")
@@ -107,10 +108,12 @@ Options parseArgs(int argc, char** argv) {
   app.add_option("--format", o.format, "datasets to write")
       ->capture_default_str()
       ->check(CLI::IsMember({"both", "yolo", "voc"}));
-  app.add_option("--augment", o.augment, "augmented copies of each image (translation, scale, mirror)")
+  app.add_option("--augment", o.augment,
+                 "augmented copies of each image (translation, scale, mirror)")
       ->capture_default_str()
       ->check(CLI::Range(0, 100));
-  app.add_option("--negatives", o.negatives, "fraction of images without a tool joint that are kept")
+  app.add_option("--negatives", o.negatives,
+                 "fraction of images without a tool joint that are kept")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1.0));
   app.add_option("--jpeg-quality", o.jpeg_quality, "JPEG quality of the images")
@@ -120,7 +123,8 @@ Options parseArgs(int argc, char** argv) {
                "print each camera's colour-image rectangle of the work zone and exit");
   app.add_flag("--quiet", o.quiet, "no progress line");
   tools::parseOrExit(app, argc, argv);
-  if (o.out.empty() && !o.print_roi) tools::usageError(app, "--out is required (unless --print-roi)");
+  if (o.out.empty() && !o.print_roi)
+    tools::usageError(app, "--out is required (unless --print-roi)");
   o.cameras = splitList(cameras);
   if (o.random <= 0 && o.scenes.empty()) o.random = 1;
   return o;

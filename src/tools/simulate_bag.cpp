@@ -70,7 +70,8 @@ int main(int argc, char** argv) {
   app.add_option("--start", start, "[s] scenario time of the first frame")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 86400.0));
-  app.add_option("--profile", opt.profile, "sensor profile: ideal|kinect_v2_calibrated|kinect_v2_field")
+  app.add_option("--profile", opt.profile,
+                 "sensor profile: ideal|kinect_v2_calibrated|kinect_v2_field")
       ->capture_default_str()
       ->check(tools::throwingCheck("PROFILE", [](const std::string& v) { sim::sensorProfile(v); }));
   app.add_option("--seed", opt.seed, "random seed of the simulation")->capture_default_str();
@@ -78,7 +79,8 @@ int main(int argc, char** argv) {
                "send no simulated detections (boxes) in the SensorFrames");
   app.add_flag("--color", opt.color,
                "also write the kinect2_bridge-style colour and depth topics (large bags)");
-  app.add_flag("--crop", crop, "crop each SensorFrame's depth to its boxes' frustum (~100x smaller)");
+  app.add_flag("--crop", crop,
+               "crop each SensorFrame's depth to its boxes' frustum (~100x smaller)");
   app.add_option("--sensors", opt.sensor_config_dir, "folder of the sensor intrinsics files")
       ->capture_default_str()
       ->check(CLI::ExistingDirectory);
