@@ -3,20 +3,23 @@
 // truth.
 //
 //   rosrun drill_pipe_pose bench_estimator BAG [--method ours|thesis_baseline] [--max-cycles N]
-//       [--config estimator.yaml-like params are not read here: defaults + --work-zone]
-//       [--csv errors.csv] [--label NAME] [--skip-camera CAM] [--no-temporal] [--no-tracking]
-//       [--threads N] [--vote-fraction F] [--box-reach M] [--confirmations N]
-//       [--no-silhouette-points] [--incidence-noise C]
+//       [--work-zone x0 y0 z0 x1 y1 z1] [--csv errors.csv] [--label NAME] [--skip-camera CAM]
+//       [--no-temporal] [--no-tracking] [--threads N] [--vote-fraction F] [--box-reach M]
+//       [--confirmations N] [--no-silhouette-points] [--incidence-noise C]
 //
-// --skip-camera leaves one camera's frames out (a dead camera); --no-temporal turns the temporal
-// filter off; --no-tracking makes every cycle run the full decision (with both, each cycle
-// stands alone); --threads sets EstimatorConfig::threads (default 1; the node's default is 2);
-// --vote-fraction sets carving.vote_fraction (the node's carving/vote_fraction; default 0.75);
-// --box-reach sets carving.box_reach (the node's carving/box_reach; default 0.5 m, 0 = off);
-// --confirmations sets temporal.confirmations (default 1, 0 = a jump restarts the filter at once);
+// The estimator starts from EstimatorConfig's defaults with the thesis lab's work zone
+// (config/estimator_thesis_lab.yaml; another one only through --work-zone) and 1 thread; no
+// configuration file is read. Each option below that is given then overrides one entry:
+// --work-zone sets work_zone; --no-temporal turns the temporal filter off; --no-tracking makes
+// every cycle run the full decision (with both, each cycle stands alone); --threads sets
+// EstimatorConfig::threads (default 1; the node's default is 2); --vote-fraction sets
+// carving.vote_fraction (the node's carving/vote_fraction; default 0.75); --box-reach sets
+// carving.box_reach (the node's carving/box_reach; default 0.5 m, 0 = off); --confirmations sets
+// temporal.confirmations (default 1, 0 = a jump restarts the filter at once);
 // --no-silhouette-points sets profile_fit.silhouette_points false; --incidence-noise sets
 // profile_fit.incidence_noise (default 0 = off).
-// Invalid ends are counted by reason.
+// --skip-camera leaves one camera's frames out (a dead camera). Invalid ends are counted by
+// reason. Exit status 0; 1 on a bad bag or configuration; 2 on a bad command line.
 //
 // Cycles are formed exactly as the node forms them (FrameSynchronizer), with each frame arriving
 // 10 ms after its capture stamp. TF comes from the bag's /tf_static and /tf.
@@ -31,6 +34,7 @@
 #include <tf2_msgs/TFMessage.h>
 
 #include <array>
+#include <functional>
 #include <chrono>
 #include <cmath>
 #include <fstream>
@@ -38,108 +42,148 @@
 #include <iostream>
 #include <map>
 #include <set>
+#include <sstream>
 
 #include "drill_pipe_pose/core/errors.hpp"
 #include "drill_pipe_pose/core/estimator/pose_estimator.hpp"
 #include "drill_pipe_pose/core/evaluation.hpp"
 #include "drill_pipe_pose/core/frame_sync.hpp"
 #include "drill_pipe_pose/ros/conversions.hpp"
+#include "cli.hpp"
 
 using namespace drill_pipe_pose;
 
 namespace {
 
-void usage() {
-  std::cerr << "usage: bench_estimator BAG [--method ours|thesis_baseline] [--max-cycles N] "
-               "[--work-zone x0 y0 z0 x1 y1 z1] [--csv FILE] [--label NAME] [--skip-camera CAM] [--no-temporal] [--no-tracking] "
-               "[--threads N] [--vote-fraction F] [--box-reach M] [--confirmations N] "
-               "[--no-silhouette-points] [--incidence-noise C]\n";
+/// The command line. Estimator settings are collected as overrides and applied in makeConfig(),
+/// after the bench's defaults, so that other sources (a configuration file, generic key=value
+/// parameters) can be layered in between without touching the options themselves.
+struct BenchOptions {
+  std::string bag_path, csv_path, label, method = "ours", skip_camera;
+  size_t max_cycles = 0;
+  /// One entry per estimator option given, each setting its field(s).
+  std::vector<std::function<void(EstimatorConfig&)>> overrides;
+};
+
+/// The bench's starting point: EstimatorConfig's defaults with the thesis lab's work zone.
+EstimatorConfig benchDefaults() {
+  EstimatorConfig cfg;
+  cfg.work_zone.min = Eigen::Vector3d(2.7, 4.0, 0.0);  // config/estimator_thesis_lab.yaml
+  cfg.work_zone.max = Eigen::Vector3d(6.7, 8.1, 3.0);
+  return cfg;
+}
+
+/// The configuration the bench runs: its defaults, then the command line's overrides.
+EstimatorConfig makeConfig(const BenchOptions& o) {
+  EstimatorConfig cfg = benchDefaults();
+  for (const auto& apply : o.overrides) apply(cfg);
+  cfg.method = parseEstimatorMethod(o.method, "--method");
+  return cfg;
+}
+
+template <class T>
+std::string str(const T& v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+/// Adds an estimator option `name` of type T whose value, when given, `set` writes into the
+/// configuration; the usage shows `def` as its default.
+template <class T, class Set>
+CLI::Option* addOverride(CLI::App& app, BenchOptions& o, const std::string& name, const T& def,
+                         const std::string& description, Set set) {
+  auto given = [&o, set](const T& v) {
+    o.overrides.push_back([v, set](EstimatorConfig& c) { set(c, v); });
+  };
+  return app.add_option_function<T>(name, given, description)->default_str(str(def));
+}
+
+/// Adds an estimator flag `name` that applies `set` when given.
+template <class Set>
+CLI::Option* addOverrideFlag(CLI::App& app, BenchOptions& o, const std::string& name,
+                             const std::string& description, Set set) {
+  return app.add_flag_function(
+      name, [&o, set](int64_t) { o.overrides.push_back(set); }, description);
+}
+
+BenchOptions parseArgs(int argc, char** argv) {
+  BenchOptions o;
+  const EstimatorConfig d = benchDefaults();
+  CLI::App app{"Runs the estimator's core pipeline on a bag without ROS transport: time per "
+               "cycle, peak memory and accuracy against the bag's ground truth.",
+               "bench_estimator"};
+  tools::configureApp(app);
+  app.footer("Starts from the estimator's defaults with the thesis lab's work zone and 1 thread "
+             "(the node's default is 2); reads no configuration file. Cycles are formed as the "
+             "node forms them; TF comes from the bag.");
+  app.add_option("BAG", o.bag_path, "bag with SensorFrames, /tf_static and the ground truth")
+      ->required()
+      ->check(CLI::ExistingFile);
+  app.add_option("--method", o.method, "estimator method: ours|thesis_baseline")
+      ->capture_default_str()
+      ->check(tools::throwingCheck("METHOD", [](const std::string& v) {
+        parseEstimatorMethod(v, "--method");
+      }));
+  app.add_option("--max-cycles", o.max_cycles, "stop after N cycles (0: the whole bag)")
+      ->capture_default_str()
+      ->check(CLI::Range(size_t{0}, size_t{1000000000}));
+  app.add_option("--csv", o.csv_path, "write the per-estimate errors to this CSV file");
+  app.add_option("--label", o.label, "name of the run in the report (default: the bag's path)");
+  app.add_option("--skip-camera", o.skip_camera, "leave this camera's frames out (a dead camera)");
+  app.add_option_function<std::vector<double>>(
+         "--work-zone",
+         [&o](const std::vector<double>& v) {
+           const std::string bad = tools::boxError(v);
+           if (!bad.empty()) throw CLI::ValidationError("--work-zone", bad);
+           o.overrides.push_back([v](EstimatorConfig& c) {
+             c.work_zone.min = Eigen::Vector3d(v[0], v[1], v[2]);
+             c.work_zone.max = Eigen::Vector3d(v[3], v[4], v[5]);
+           });
+         },
+         "[m] work_zone: min and max corner (default: the thesis lab's, " +
+             str(d.work_zone.min.transpose()) + "  " + str(d.work_zone.max.transpose()) + ")")
+      ->expected(6)
+      ->option_text("x0 y0 z0 x1 y1 z1");
+  addOverrideFlag(app, o, "--no-temporal", "turn the temporal filter off (temporal.enabled)",
+                  [](EstimatorConfig& c) { c.temporal.enabled = false; });
+  addOverrideFlag(app, o, "--no-tracking", "run the full decision every cycle (tracking.enabled)",
+                  [](EstimatorConfig& c) { c.tracking.enabled = false; });
+  addOverride(app, o, "--threads", d.threads, "threads of the estimator (threads)",
+              [](EstimatorConfig& c, int v) { c.threads = v; })
+      ->check(CLI::Range(1, 256));
+  addOverride(app, o, "--vote-fraction", d.carving.vote_fraction,
+              "fraction of the cameras that must agree (carving.vote_fraction)",
+              [](EstimatorConfig& c, double v) { c.carving.vote_fraction = v; })
+      ->check(CLI::Range(0.0, 1.0));
+  addOverride(app, o, "--box-reach", d.carving.box_reach,
+              "[m] carving votes only near a box (carving.box_reach, 0 = off)",
+              [](EstimatorConfig& c, double v) { c.carving.box_reach = v; })
+      ->check(CLI::NonNegativeNumber);
+  addOverride(app, o, "--confirmations", d.temporal.confirmations,
+              "cycles that confirm a jump (temporal.confirmations, 0 = restart at once)",
+              [](EstimatorConfig& c, int v) { c.temporal.confirmations = v; })
+      ->check(CLI::Range(0, 1000));
+  addOverrideFlag(app, o, "--no-silhouette-points",
+                  "no silhouette points in the final fit (profile_fit.silhouette_points)",
+                  [](EstimatorConfig& c) { c.profile_fit.silhouette_points = false; });
+  addOverride(app, o, "--incidence-noise", d.profile_fit.incidence_noise,
+              "grazing-incidence depth noise term (profile_fit.incidence_noise, 0 = off)",
+              [](EstimatorConfig& c, double v) { c.profile_fit.incidence_noise = v; })
+      ->check(CLI::NonNegativeNumber);
+  tools::parseOrExit(app, argc, argv);
+  return o;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string bag_path, csv_path, label, method = "ours", skip_camera;
-  size_t max_cycles = 0;
-  EstimatorConfig cfg;
-  cfg.work_zone.min = Eigen::Vector3d(2.7, 4.0, 0.0);  // config/estimator_thesis_lab.yaml
-  cfg.work_zone.max = Eigen::Vector3d(6.7, 8.1, 3.0);
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto next = [&]() -> std::string {
-      if (i + 1 >= argc) {
-        usage();
-        std::exit(2);
-      }
-      return argv[++i];
-    };
-    // An option's value as a number; a clear message and exit 2 when it is not one.
-    auto number = [&]() -> double {
-      const std::string v = next();
-      size_t used = 0;
-      double x = 0;
-      try {
-        x = std::stod(v, &used);
-      } catch (const std::exception&) {
-        used = 0;
-      }
-      if (used == 0 || used != v.size()) {
-        std::cerr << "bench_estimator: " << a << " expects a number, got '" << v << "'\n";
-        std::exit(2);
-      }
-      return x;
-    };
-    auto count = [&]() -> long {
-      const double x = number();
-      if (!(x >= 0) || x != std::floor(x) || x > 1e9) {
-        std::cerr << "bench_estimator: " << a << " expects a whole number >= 0, got " << x
-                  << "\n";
-        std::exit(2);
-      }
-      return static_cast<long>(x);
-    };
-    if (a == "--method")
-      method = next();
-    else if (a == "--max-cycles")
-      max_cycles = static_cast<size_t>(count());
-    else if (a == "--csv")
-      csv_path = next();
-    else if (a == "--label")
-      label = next();
-    else if (a == "--skip-camera")
-      skip_camera = next();
-    else if (a == "--no-temporal")
-      cfg.temporal.enabled = false;
-    else if (a == "--no-tracking")
-      cfg.tracking.enabled = false;
-    else if (a == "--threads")
-      cfg.threads = static_cast<int>(count());
-    else if (a == "--vote-fraction")
-      cfg.carving.vote_fraction = number();
-    else if (a == "--box-reach")
-      cfg.carving.box_reach = number();
-    else if (a == "--confirmations")
-      cfg.temporal.confirmations = static_cast<int>(count());
-    else if (a == "--no-silhouette-points")
-      cfg.profile_fit.silhouette_points = false;
-    else if (a == "--incidence-noise")
-      cfg.profile_fit.incidence_noise = number();
-    else if (a == "--work-zone") {
-      for (int k = 0; k < 3; ++k) cfg.work_zone.min[k] = number();
-      for (int k = 0; k < 3; ++k) cfg.work_zone.max[k] = number();
-    } else if (bag_path.empty())
-      bag_path = a;
-    else {
-      usage();
-      return 2;
-    }
-  }
-  if (bag_path.empty()) {
-    usage();
-    return 2;
-  }
+  const BenchOptions opt = parseArgs(argc, argv);
+  const std::string &bag_path = opt.bag_path, &csv_path = opt.csv_path, &label = opt.label,
+                    &method = opt.method, &skip_camera = opt.skip_camera;
+  const size_t max_cycles = opt.max_cycles;
   try {
-    cfg.method = parseEstimatorMethod(method, "--method");
+    const EstimatorConfig cfg = makeConfig(opt);
     rosbag::Bag bag;
     try {
       bag.open(bag_path, rosbag::bagmode::Read);

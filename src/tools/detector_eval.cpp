@@ -4,7 +4,7 @@
 //   detector_eval --model M.onnx --data DIR/yolo [--split test] [--input 416x416]
 //       [--roi x,y,w,h] [--conf 0.01] [--max-per-class 0] [--cross-class-nms 0.7]
 //       [--labels box_end,pin_end]
-//       [--darknet-cfg C.cfg] [--threads 1] [--csv OUT.csv]
+//       [--darknet-cfg C.cfg] [--threads 1] [--csv OUT.csv] [--min-ap A]
 //     mAP@0.5 per class (VOC all-point interpolated AP; a detection matches an unmatched ground
 //     truth box of its class with IoU >= 0.5, highest score first) over a YOLO dataset, e.g.
 //     images render_dataset rendered with held-out seeds. Also precision / recall at the node's
@@ -14,7 +14,8 @@
 //     Inference time against input size (median / mean [ms] per frame, preprocessing + network +
 //     decoding), on one core by default, at the node's operating point (confidence 0.25, one box
 //     per class, unless --conf / --max-per-class say otherwise).
-// Exit status 0; 1 on bad input; 2 when --min-ap is given and a class falls below it.
+// Exit status 0; 1 on bad input; 2 on a bad command line, or when --min-ap is given and a class
+// falls below it.
 #include <opencv2/imgcodecs.hpp>
 
 #include <algorithm>
@@ -28,6 +29,7 @@
 
 #include "drill_pipe_pose/core/detector/yolo_detector.hpp"
 #include "drill_pipe_pose/core/errors.hpp"
+#include "cli.hpp"
 
 using namespace drill_pipe_pose;
 using namespace drill_pipe_pose::detector;
@@ -52,83 +54,110 @@ std::vector<std::string> splitList(const std::string& s, char sep = ',') {
   return out;
 }
 
+/// "WIDTHxHEIGHT" -> width, height (positive); throws InputError otherwise.
 void parseSize(const std::string& s, int* w, int* h) {
   const auto v = splitList(s, 'x');
-  if (v.size() != 2) fail("detector_eval: size '", s, "': expected WIDTHxHEIGHT, e.g. 416x416");
-  *w = std::stoi(v[0]);
-  *h = std::stoi(v[1]);
+  size_t used_w = 0, used_h = 0;
+  try {
+    if (v.size() == 2) {
+      *w = std::stoi(v[0], &used_w);
+      *h = std::stoi(v[1], &used_h);
+    }
+  } catch (const std::exception&) {
+    used_w = used_h = 0;
+  }
+  if (v.size() != 2 || used_w != v[0].size() || used_h != v[1].size() || *w <= 0 || *h <= 0)
+    fail("size '", s, "': expected WIDTHxHEIGHT, e.g. 416x416");
 }
 
-void usage() {
-  std::cerr << "usage: detector_eval --model M.onnx (--data DIR [--split test] | --timing "
-               "320x320,416x416 [--image I.jpg] [--repeat N]) [--input WxH] [--roi x,y,w,h] "
-               "[--conf C] [--max-per-class K] [--cross-class-nms T] [--labels a,b] [--darknet-cfg "
-               "C.cfg] "
-               "[--threads N] [--csv OUT.csv] [--min-ap A]\n";
+/// "x,y,w,h" (pixels, whole numbers >= 0) -> roi; throws InputError otherwise.
+ImageRoi parseRoi(const std::string& s) {
+  const auto v = splitList(s);
+  ImageRoi roi;
+  unsigned long x[4] = {0, 0, 0, 0};
+  bool ok = v.size() == 4;
+  for (size_t i = 0; ok && i < 4; ++i) {
+    size_t used = 0;
+    try {
+      ok = v[i][0] != '-' && (x[i] = std::stoul(v[i], &used), used == v[i].size()) && x[i] < 100000;
+    } catch (const std::exception&) {
+      ok = false;
+    }
+  }
+  if (!ok) fail("roi '", s, "': expected x,y,width,height in pixels, e.g. 0,0,960,540");
+  roi.x_offset = x[0];
+  roi.y_offset = x[1];
+  roi.width = x[2];
+  roi.height = x[3];
+  return roi;
 }
 
 Options parseArgs(int argc, char** argv) {
   Options o;
-  bool conf_given = false, max_given = false;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto next = [&]() -> std::string {
-      if (i + 1 >= argc) fail("detector_eval: ", a, " needs a value");
-      return argv[++i];
-    };
-    if (a == "--model")
-      o.det.model = next();
-    else if (a == "--darknet-cfg")
-      o.det.darknet_cfg = next();
-    else if (a == "--data")
-      o.data = next();
-    else if (a == "--split")
-      o.split = next();
-    else if (a == "--input")
-      parseSize(next(), &o.det.input_width, &o.det.input_height);
-    else if (a == "--conf")
-      o.det.confidence_threshold = std::stof(next()), conf_given = true;
-    else if (a == "--max-per-class")
-      o.det.max_boxes_per_class = std::stoi(next()), max_given = true;
-    else if (a == "--cross-class-nms")
-      o.det.cross_class_nms_threshold = std::stof(next());
-    else if (a == "--labels")
-      o.det.labels = splitList(next());
-    else if (a == "--threads")
-      o.det.num_threads = std::stoi(next());
-    else if (a == "--timing")
-      o.timing = next();
-    else if (a == "--image")
-      o.image = next();
-    else if (a == "--repeat")
-      o.repeat = std::stoi(next());
-    else if (a == "--csv")
-      o.csv = next();
-    else if (a == "--min-ap")
-      o.min_ap = std::stod(next());
-    else if (a == "--roi") {
-      const auto v = splitList(next());
-      if (v.size() != 4) fail("detector_eval: --roi expects x,y,width,height");
-      o.det.roi.x_offset = std::stoul(v[0]);
-      o.det.roi.y_offset = std::stoul(v[1]);
-      o.det.roi.width = std::stoul(v[2]);
-      o.det.roi.height = std::stoul(v[3]);
-    } else if (a == "-h" || a == "--help") {
-      usage();
-      std::exit(0);
-    } else {
-      usage();
-      fail("detector_eval: unknown argument '", a, "'");
-    }
-  }
-  if (o.det.model.empty()) {
-    usage();
-    fail("detector_eval: --model is required");
-  }
-  if (o.data.empty() && o.timing.empty()) {
-    usage();
-    fail("detector_eval: give --data (accuracy) or --timing (speed)");
-  }
+  std::string input, roi, labels;
+  CLI::App app{"Accuracy (mAP@0.5 over a YOLO dataset) and speed (inference time against input "
+               "size) of a detector model, as the pipe_detector node runs it.",
+               "detector_eval"};
+  tools::configureApp(app);
+  app.footer(
+      "Give --data (accuracy) or --timing (speed), or both. Exit status 0; 1 on bad input; 2 on a "
+      "bad command line or when --min-ap is given and a class falls below it.");
+  app.add_option("--model", o.det.model, "model file: .onnx, or Darknet .weights")
+      ->required()
+      ->check(CLI::ExistingFile);
+  app.add_option("--darknet-cfg", o.det.darknet_cfg,
+                 "Darknet .cfg of a .weights model (default: beside it)")
+      ->check(CLI::ExistingFile);
+  app.add_option("--data", o.data, "YOLO dataset folder (render_dataset's DIR/yolo): accuracy")
+      ->check(CLI::ExistingDirectory);
+  app.add_option("--split", o.split, "dataset split to evaluate")->capture_default_str();
+  app.add_option("--input", input, "network input size [px], multiples of 32 (default: 960x544)")
+      ->option_text("WxH")
+      ->check(tools::throwingCheck("WxH", [](const std::string& v) {
+        int w, h;
+        parseSize(v, &w, &h);
+      }));
+  app.add_option("--roi", roi, "region of interest of the colour image [px] (default: whole image)")
+      ->option_text("x,y,w,h")
+      ->check(tools::throwingCheck("x,y,w,h", [](const std::string& v) { parseRoi(v); }));
+  app.add_option("--conf", o.det.confidence_threshold,
+                 "confidence threshold (default: 0.01 for --data, 0.25 for --timing)")
+      ->check(CLI::Range(0.0f, 1.0f));
+  app.add_option("--max-per-class", o.det.max_boxes_per_class,
+                 "boxes kept per class, 0 = no limit (default: 0 for --data, 1 for --timing)")
+      ->check(CLI::Range(0, 100000));
+  app.add_option("--cross-class-nms", o.det.cross_class_nms_threshold,
+                 "IoU above which a box of the other class is suppressed (>= 1: off)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--labels", labels, "class names in the model's order, comma-separated")
+      ->option_text("box_end,pin_end");
+  app.add_option("--threads", o.det.num_threads, "threads for inference (0: OpenCV's default)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 256));
+  app.add_option("--timing", o.timing, "input sizes to time, comma-separated: speed")
+      ->option_text("WxH,...")
+      ->check(tools::throwingCheck("WxH,...", [](const std::string& v) {
+        const auto sizes = splitList(v);
+        if (sizes.empty()) fail("expected WxH,..., e.g. 320x320,416x416");
+        int w, h;
+        for (const auto& s : sizes) parseSize(s, &w, &h);
+      }));
+  app.add_option("--image", o.image, "image to time on (default: random 960x540 pixels)")
+      ->check(CLI::ExistingFile);
+  app.add_option("--repeat", o.repeat, "timed runs per input size")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 100000));
+  app.add_option("--csv", o.csv, "write the results to this CSV file");
+  app.add_option("--min-ap", o.min_ap, "exit 2 when a class's AP@0.5 is below this (--data)")
+      ->check(CLI::Range(0.0, 1.0));
+  tools::parseOrExit(app, argc, argv);
+  if (o.data.empty() && o.timing.empty())
+    tools::usageError(app, "give --data (accuracy) or --timing (speed)");
+  if (!input.empty()) parseSize(input, &o.det.input_width, &o.det.input_height);
+  if (!roi.empty()) o.det.roi = parseRoi(roi);
+  if (!labels.empty()) o.det.labels = splitList(labels);
+  const bool conf_given = app.count("--conf") > 0, max_given = app.count("--max-per-class") > 0;
   // mAP needs the whole precision-recall curve; --timing keeps the node's operating point.
   o.timing_det = o.det;
   if (!conf_given) o.det.confidence_threshold = 0.01f;

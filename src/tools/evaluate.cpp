@@ -7,6 +7,7 @@
 // invalid poses count as failures against the expected cycles (rate x ground-truth span, or N).
 // Prints the thesis-style table per end, the symmetry-aware errors and success rates, and the
 // latency recorded in the status messages (meaningful for a 1x replay).
+// Exit status 0; 1 on a bad bag; 2 on a bad command line.
 #include <drill_pipe_pose/EstimatorStatus.h>
 #include <drill_pipe_pose/PipeEnds.h>
 #include <geometry_msgs/PoseStamped.h>
@@ -22,52 +23,31 @@
 #include "drill_pipe_pose/core/errors.hpp"
 #include "drill_pipe_pose/core/evaluation.hpp"
 #include "drill_pipe_pose/ros/conversions.hpp"
+#include "cli.hpp"
 
 using namespace drill_pipe_pose;
-
-namespace {
-
-void usage() {
-  std::cerr << "usage: evaluate BAG [--ns /drill_pipe_pose] [--csv FILE] [--rate HZ] "
-               "[--expected N]\n";
-}
-
-}  // namespace
 
 int main(int argc, char** argv) {
   std::string bag_path, ns = "/drill_pipe_pose", csv_path;
   EvaluationOptions opt;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto next = [&]() -> std::string {
-      if (i + 1 >= argc) {
-        usage();
-        std::exit(2);
-      }
-      return argv[++i];
-    };
-    if (a == "--ns")
-      ns = next();
-    else if (a == "--csv")
-      csv_path = next();
-    else if (a == "--rate")
-      opt.expected_rate_hz = std::stod(next());
-    else if (a == "--expected")
-      opt.expected_cycles = std::stoul(next());
-    else if (a == "-h" || a == "--help") {
-      usage();
-      return 0;
-    } else if (bag_path.empty())
-      bag_path = a;
-    else {
-      usage();
-      return 2;
-    }
-  }
-  if (bag_path.empty()) {
-    usage();
-    return 2;
-  }
+  CLI::App app{"Scores a bag of estimates (PipeEnds) against the simulator's ground truth.",
+               "evaluate"};
+  tools::configureApp(app);
+  app.add_option("BAG", bag_path, "bag with the estimator's output and the ground truth")
+      ->required()
+      ->check(CLI::ExistingFile);
+  app.add_option("--ns", ns, "namespace of the estimator's topics (<ns>/pipe_ends, <ns>/status)")
+      ->capture_default_str();
+  app.add_option("--csv", csv_path, "write one row per scored estimate to this CSV file");
+  app.add_option("--rate", opt.expected_rate_hz,
+                 "[Hz] expected cycles per second of ground truth (unless --expected)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.1, 1000.0));
+  app.add_option("--expected", opt.expected_cycles,
+                 "expected cycles in all (0: --rate x the ground truth's span)")
+      ->capture_default_str()
+      ->check(CLI::Range(size_t{0}, size_t{1000000000}));
+  tools::parseOrExit(app, argc, argv);
   try {
     rosbag::Bag bag;
     try {

@@ -2,30 +2,33 @@
 // box_end.stl, pin_end.stl (meshes) and box_end.pcd, pin_end.pcd (uniform clouds with normals).
 //
 //   rosrun drill_pipe_pose make_models OUT_DIR [--spacing 0.003] [--threads]
+//
+// OUT_DIR must exist. Exit status 0; 1 when a model cannot be written; 2 on a bad command line.
 #include <iostream>
 #include <string>
 
 #include "drill_pipe_pose/core/errors.hpp"
 #include "drill_pipe_pose/core/mesh_io.hpp"
 #include "drill_pipe_pose/core/tool_joint.hpp"
+#include "cli.hpp"
 
 int main(int argc, char** argv) {
   std::string dir;
   double spacing = 0.003;
   drill_pipe_pose::ToolJointDimensions dims;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--spacing" && i + 1 < argc)
-      spacing = std::stod(argv[++i]);
-    else if (a == "--threads")
-      dims.threads = true;
-    else if (dir.empty())
-      dir = a;
-  }
-  if (dir.empty()) {
-    std::cerr << "usage: make_models OUT_DIR [--spacing M] [--threads]\n";
-    return 2;
-  }
+  CLI::App app{"Writes the parametric tool-joint models (default 5\" NC50) as STL meshes and PCD "
+               "clouds with normals.",
+               "make_models"};
+  drill_pipe_pose::tools::configureApp(app);
+  app.add_option("OUT_DIR", dir, "existing folder for box_end/pin_end .stl and .pcd")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  app.add_option("--spacing", spacing, "[m] point spacing of the sampled clouds")
+      ->capture_default_str()
+      ->check(CLI::Range(1e-4, 0.1));
+  app.add_flag("--threads", dims.threads,
+               "model the thread ridges (4 TPI) on the pin and in the box");
+  drill_pipe_pose::tools::parseOrExit(app, argc, argv);
   try {
     for (auto end : {drill_pipe_pose::EndLabel::kBoxEnd, drill_pipe_pose::EndLabel::kPinEnd}) {
       const auto profile = drill_pipe_pose::toolJointProfile(end, dims);

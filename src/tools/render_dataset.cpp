@@ -23,6 +23,7 @@
 // Layout: DIR/yolo/{images,labels}/<split>/<name>.{jpg,txt} (class cx cy w h, normalised),
 // DIR/yolo/classes.txt, DIR/yolo/<split>.txt (image list); DIR/voc/JPEGImages/<name>.jpg,
 // DIR/voc/Annotations/<name>.xml, DIR/voc/ImageSets/Main/<split>.txt.
+// Exit status 0; 1 on bad input files; 2 on a bad command line.
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -38,6 +39,8 @@
 #include "drill_pipe_pose/core/errors.hpp"
 #include "drill_pipe_pose/core/rig_calibration.hpp"
 #include "drill_pipe_pose/sim/rig_simulator.hpp"
+#include "drill_pipe_pose/sim/sensor_model.hpp"
+#include "cli.hpp"
 
 #ifndef DRILL_PIPE_POSE_SOURCE_DIR
 #define DRILL_PIPE_POSE_SOURCE_DIR "."
@@ -59,13 +62,6 @@ struct Options {
   bool print_roi = false, quiet = false;
 };
 
-void usage() {
-  std::cerr << "usage: render_dataset --out DIR [--random N | --scene S.yaml ...] [--frames K] "
-               "[--seed N] [--rig RIG.yaml] [--cameras cam1,cam2] [--profile NAME] "
-               "[--split train|val|test] [--format both|yolo|voc] [--augment A] "
-               "[--negatives P] [--jpeg-quality Q] [--print-roi] [--quiet]\n";
-}
-
 std::vector<std::string> splitList(const std::string& s) {
   std::vector<std::string> out;
   std::stringstream ss(s);
@@ -77,60 +73,60 @@ std::vector<std::string> splitList(const std::string& s) {
 
 Options parseArgs(int argc, char** argv) {
   Options o;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto next = [&]() -> std::string {
-      if (i + 1 >= argc) fail("render_dataset: ", a, " needs a value");
-      return argv[++i];
-    };
-    if (a == "--out")
-      o.out = next();
-    else if (a == "--rig")
-      o.rig = next();
-    else if (a == "--sensors")
-      o.sensors = next();
-    else if (a == "--scene")
-      o.scenes.push_back(next());
-    else if (a == "--cameras")
-      o.cameras = splitList(next());
-    else if (a == "--random")
-      o.random = std::stoi(next());
-    else if (a == "--frames")
-      o.frames = std::stoi(next());
-    else if (a == "--augment")
-      o.augment = std::stoi(next());
-    else if (a == "--jpeg-quality")
-      o.jpeg_quality = std::stoi(next());
-    else if (a == "--seed")
-      o.seed = static_cast<uint32_t>(std::stoul(next()));
-    else if (a == "--profile")
-      o.profile = next();
-    else if (a == "--split")
-      o.split = next();
-    else if (a == "--format")
-      o.format = next();
-    else if (a == "--negatives")
-      o.negatives = std::stod(next());
-    else if (a == "--print-roi")
-      o.print_roi = true;
-    else if (a == "--quiet")
-      o.quiet = true;
-    else if (a == "-h" || a == "--help") {
-      usage();
-      std::exit(0);
-    } else {
-      usage();
-      fail("render_dataset: unknown argument '", a, "'");
-    }
-  }
-  if (o.out.empty() && !o.print_roi) {
-    usage();
-    fail("render_dataset: --out is required");
-  }
+  std::string cameras;
+  CLI::App app{"Renders labelled colour images of a rig with the simulator into a YOLO and a "
+               "Pascal VOC dataset.",
+               "render_dataset"};
+  tools::configureApp(app);
+  app.add_option("--out", o.out, "output folder (required unless --print-roi)");
+  app.add_option("--random", o.random, "render N random scenarios (the default: 1, unless --scene)")
+      ->check(CLI::Range(0, 1000000));
+  app.add_option("--scene", o.scenes, "render this scenario file instead (repeatable)")
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
+      ->expected(1)
+      ->option_text("S.yaml ...")
+      ->check(CLI::ExistingFile);
+  app.add_option("--frames", o.frames, "poses rendered per scenario")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 100000));
+  app.add_option("--seed", o.seed, "random seed (use held-out seeds for evaluation sets)")
+      ->capture_default_str();
+  app.add_option("--rig", o.rig, "rig calibration file (YAML)")
+      ->capture_default_str()
+      ->check(CLI::ExistingFile);
+  app.add_option("--sensors", o.sensors, "folder of the sensor intrinsics files")
+      ->capture_default_str()
+      ->check(CLI::ExistingDirectory);
+  app.add_option("--cameras", cameras, "only these cameras, comma-separated (default: all)")
+      ->option_text("cam1,cam2");
+  app.add_option("--profile", o.profile,
+                 "sensor profile: ideal|kinect_v2_calibrated|kinect_v2_field")
+      ->capture_default_str()
+      ->check(tools::throwingCheck("PROFILE", [](const std::string& v) { sim::sensorProfile(v); }));
+  app.add_option("--split", o.split, "dataset split the images go to (train, val, test, ...)")
+      ->capture_default_str();
+  app.add_option("--format", o.format, "datasets to write")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"both", "yolo", "voc"}));
+  app.add_option("--augment", o.augment,
+                 "augmented copies of each image (translation, scale, mirror)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 100));
+  app.add_option("--negatives", o.negatives,
+                 "fraction of images without a tool joint that are kept")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1.0));
+  app.add_option("--jpeg-quality", o.jpeg_quality, "JPEG quality of the images")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 100));
+  app.add_flag("--print-roi", o.print_roi,
+               "print each camera's colour-image rectangle of the work zone and exit");
+  app.add_flag("--quiet", o.quiet, "no progress line");
+  tools::parseOrExit(app, argc, argv);
+  if (o.out.empty() && !o.print_roi)
+    tools::usageError(app, "--out is required (unless --print-roi)");
+  o.cameras = splitList(cameras);
   if (o.random <= 0 && o.scenes.empty()) o.random = 1;
-  if (o.frames < 1) fail("render_dataset: --frames must be >= 1");
-  if (o.format != "both" && o.format != "yolo" && o.format != "voc")
-    fail("render_dataset: --format '", o.format, "': expected both, yolo or voc");
   return o;
 }
 

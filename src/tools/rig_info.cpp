@@ -5,40 +5,43 @@
 //
 // Off-axis angle: between the camera's optical axis and the ray to the target (a Kinect v2 depth
 // camera sees +-35 deg horizontally, +-30 deg vertically). Depression: how far below the
-// horizon the camera looks at the target.
+// horizon the camera looks at the target. The default zone is the thesis lab's
+// (config/estimator_thesis_lab.yaml). Exit status 0; 1 on a bad calibration file; 2 on a bad
+// command line.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <string>
+#include <vector>
 
 #include "drill_pipe_pose/core/errors.hpp"
 #include "drill_pipe_pose/core/rig_calibration.hpp"
+#include "cli.hpp"
 
 int main(int argc, char** argv) {
   std::string path;
-  Eigen::Vector3d zmin(2.7, 4.0, 0.0), zmax(6.7, 8.1, 3.0);
-  bool have_target = false;
+  std::vector<double> target_xyz, zone{2.7, 4.0, 0.0, 6.7, 8.1, 3.0};  // the thesis lab's zone
+  CLI::App app{"Validates a rig calibration file and prints each camera's pose, distance and "
+               "viewing angles to the work zone (or a target point).",
+               "rig_info"};
+  drill_pipe_pose::tools::configureApp(app);
+  app.add_option("RIG", path, "rig calibration file (YAML)")->required()->check(CLI::ExistingFile);
+  app.add_option("--target", target_xyz, "[m] world point to look at (default: the zone's centre)")
+      ->expected(3)
+      ->option_text("x y z");
+  app.add_option("--zone", zone, "[m] work zone, min and max corner (default: the thesis lab's)")
+      ->expected(6)
+      ->option_text("x0 y0 z0 x1 y1 z1");
+  drill_pipe_pose::tools::parseOrExit(app, argc, argv);
+  if (!target_xyz.empty() && target_xyz.size() != 3)
+    drill_pipe_pose::tools::usageError(app, "--target: expected 3 numbers: x y z");
+  if (const std::string bad = drill_pipe_pose::tools::boxError(zone); !bad.empty())
+    drill_pipe_pose::tools::usageError(app, "--zone: " + bad);
+  const Eigen::Vector3d zmin(zone[0], zone[1], zone[2]), zmax(zone[3], zone[4], zone[5]);
+  const bool have_target = !target_xyz.empty();
   Eigen::Vector3d target;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--target" && i + 3 < argc) {
-      for (int k = 0; k < 3; ++k) target[k] = std::stod(argv[++i]);
-      have_target = true;
-    } else if (a == "--zone" && i + 6 < argc) {
-      for (int k = 0; k < 3; ++k) zmin[k] = std::stod(argv[++i]);
-      for (int k = 0; k < 3; ++k) zmax[k] = std::stod(argv[++i]);
-    } else if (path.empty()) {
-      path = a;
-    } else {
-      path.clear();
-      break;
-    }
-  }
-  if (path.empty()) {
-    std::cerr << "usage: rig_info RIG.yaml [--target x y z] [--zone x0 y0 z0 x1 y1 z1]\n";
-    return 2;
-  }
+  if (have_target) target = Eigen::Vector3d(target_xyz[0], target_xyz[1], target_xyz[2]);
   try {
     const auto rig = drill_pipe_pose::loadRigCalibration(path);
     if (!have_target) target = 0.5 * (zmin + zmax);

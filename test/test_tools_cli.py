@@ -1,0 +1,153 @@
+#!/usr/bin/env python3
+"""Every program in src/tools has the same command-line contract (src/tools/cli.hpp):
+
+- `--help` exits 0 and prints the usage, listing every option with a description (the options
+  that scripts/, launch/ and test/ pass are checked by name);
+- an unknown option exits 2 with a message naming it;
+- a bad value exits 2 with a message naming the option.
+
+Run by ctest (CMakeLists.txt): test_tools_cli.py --bin-dir DEVEL/lib/drill_pipe_pose --xml OUT.xml
+The programs are only asked to parse their command line: nothing is rendered or read.
+"""
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import unittest
+import xml.etree.ElementTree as ET
+
+BIN_DIR = None
+
+# Every option of each tool, as before the move to CLI11 (names must never change silently).
+OPTIONS = {
+    "bench_estimator": ["--method", "--max-cycles", "--work-zone", "--csv", "--label",
+                        "--skip-camera", "--no-temporal", "--no-tracking", "--threads",
+                        "--vote-fraction", "--box-reach", "--confirmations",
+                        "--no-silhouette-points", "--incidence-noise"],
+    "detector_eval": ["--model", "--darknet-cfg", "--data", "--split", "--input", "--roi", "--conf",
+                      "--max-per-class", "--cross-class-nms", "--labels", "--threads", "--timing",
+                      "--image", "--repeat", "--csv", "--min-ap"],
+    "evaluate": ["--ns", "--csv", "--rate", "--expected"],
+    "make_models": ["--spacing", "--threads"],
+    "mesh_to_cloud": ["--spacing", "--scale", "--seed"],
+    "render_dataset": ["--out", "--rig", "--sensors", "--scene", "--cameras", "--random",
+                       "--frames", "--augment", "--jpeg-quality", "--seed", "--profile", "--split",
+                       "--format", "--negatives", "--print-roi", "--quiet"],
+    "rig_info": ["--target", "--zone"],
+    "simulate_bag": ["--scene", "--out", "--rig", "--duration", "--start", "--profile", "--seed",
+                     "--no-detection", "--color", "--crop", "--sensors", "--quiet", "--effect-off"],
+}
+
+
+def run(tool, *args):
+    return subprocess.run([os.path.join(BIN_DIR, tool)] + list(args), capture_output=True,
+                          text=True, timeout=60)
+
+
+class ToolsCli(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = tempfile.mkdtemp(prefix="dpp_cli_")
+        cls.file = os.path.join(cls.tmp, "existing.txt")  # passes "existing file" checks
+        with open(cls.file, "w") as f:
+            f.write("x\n")
+
+    def test_every_tool_is_covered(self):
+        tools = sorted(f[:-4] for f in os.listdir(os.path.join(os.path.dirname(__file__), "..",
+                                                               "src", "tools"))
+                       if f.endswith(".cpp"))
+        self.assertEqual(tools, sorted(OPTIONS))
+
+    def test_help(self):
+        for tool, options in OPTIONS.items():
+            with self.subTest(tool=tool):
+                r = run(tool, "--help")
+                self.assertEqual(r.returncode, 0, r.stdout + r.stderr)
+                self.assertIn("Usage", r.stdout)
+                lines = r.stdout.splitlines()
+                for opt in options:
+                    # The option's line, and a description after it (same or next line).
+                    idx = [i for i, l in enumerate(lines) if l.lstrip().startswith(opt + " ")
+                           or l.strip() == opt]
+                    self.assertTrue(idx, f"{tool} --help does not list {opt}:\n{r.stdout}")
+                    i = idx[0]
+                    rest = lines[i].strip()[len(opt):].strip()
+                    nxt = lines[i + 1].strip() if i + 1 < len(lines) else ""
+                    self.assertTrue(rest or nxt, f"{tool} {opt} has no description")
+
+    def test_unknown_option(self):
+        for tool in OPTIONS:
+            with self.subTest(tool=tool):
+                r = run(tool, "--no-such-option")
+                self.assertEqual(r.returncode, 2, r.stdout + r.stderr)
+                self.assertIn("--no-such-option", r.stderr)
+
+    def test_bad_value(self):
+        f, d = self.file, self.tmp
+        cases = {
+            "bench_estimator": ("--threads", [f, "--threads", "0"]),
+            "detector_eval": ("--conf", ["--model", f, "--data", d, "--conf", "2"]),
+            "evaluate": ("--rate", [f, "--rate", "abc"]),
+            "make_models": ("--spacing", [d, "--spacing", "-1"]),
+            "mesh_to_cloud": ("--scale", [f, os.path.join(d, "o.pcd"), "--scale", "0"]),
+            "render_dataset": ("--frames", ["--out", d, "--frames", "0"]),
+            "rig_info": ("--zone", [f, "--zone", "1", "1", "1", "0", "0", "0"]),
+            "simulate_bag": ("--duration", ["--scene", f, "--out", os.path.join(d, "o.bag"),
+                                            "--duration", "0"]),
+        }
+        self.assertEqual(sorted(cases), sorted(OPTIONS))
+        for tool, (opt, args) in cases.items():
+            with self.subTest(tool=tool):
+                r = run(tool, *args)
+                self.assertEqual(r.returncode, 2, r.stdout + r.stderr)
+                self.assertIn(opt, r.stderr)
+
+    def test_bad_choice_and_missing_value(self):
+        f = self.file
+        for tool, opt, args in [
+            ("bench_estimator", "--method", [f, "--method", "nope"]),
+            ("bench_estimator", "--work-zone", [f, "--work-zone", "1", "2", "3"]),
+            ("simulate_bag", "--profile", ["--scene", f, "--out", "x.bag", "--profile", "nope"]),
+            ("simulate_bag", "--effect-off", ["--scene", f, "--out", "x.bag", "--effect-off", "x"]),
+            ("render_dataset", "--format", ["--out", self.tmp, "--format", "png"]),
+            ("detector_eval", "--input", ["--model", f, "--timing", "320x320", "--input", "4x"]),
+            ("detector_eval", "--roi", ["--model", f, "--timing", "320x320", "--roi", "1,2,3"]),
+            ("mesh_to_cloud", "--seed", [f, "o.pcd", "--seed", "-3"]),
+            ("rig_info", "--target", [f, "--target", "1", "2"]),
+        ]:
+            with self.subTest(tool=tool, opt=opt):
+                r = run(tool, *args)
+                self.assertEqual(r.returncode, 2, r.stdout + r.stderr)
+                self.assertIn(opt, r.stderr)
+
+
+def main():
+    global BIN_DIR
+    p = argparse.ArgumentParser()
+    p.add_argument("--bin-dir", required=True)
+    p.add_argument("--xml", help="JUnit result file")
+    a = p.parse_args()
+    BIN_DIR = a.bin_dir
+    suite = unittest.defaultTestLoader.loadTestsFromTestCase(ToolsCli)
+    ids = [t.id() for t in suite]  # the suite forgets its tests once run
+    result = unittest.TextTestRunner(verbosity=2).run(suite)
+    if a.xml:
+        bad = {}  # test id -> messages (a failed subTest counts against its test)
+        for t, msg in result.failures + result.errors:
+            tid = getattr(t, "test_case", t).id()
+            bad[tid] = bad.get(tid, "") + msg
+        root = ET.Element("testsuite", name="tools_cli", tests=str(result.testsRun),
+                          failures=str(len(bad)), errors="0", time="0")
+        for tid in ids:
+            tc = ET.SubElement(root, "testcase", classname="ToolsCli", name=tid.split(".")[-1],
+                               time="0")
+            if tid in bad:
+                ET.SubElement(tc, "failure", message="failed").text = bad[tid]
+        os.makedirs(os.path.dirname(os.path.abspath(a.xml)), exist_ok=True)
+        ET.ElementTree(root).write(a.xml, encoding="utf-8", xml_declaration=True)
+    return 0 if result.wasSuccessful() else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
