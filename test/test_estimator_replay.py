@@ -6,8 +6,12 @@
 2. The same bag with cam3 silent after 1.5 s: poses continue; /diagnostics reports cam3.
 3. The bag looped (the clock jumps back): the node keeps publishing after the jump.
 4. Bad input on a camera topic (unsupported encoding): the node goes on with the others.
+5. The node and bench_estimator publish the same poses: the bag at quarter speed through the
+   node, and bench_estimator on the same bag with the node's configuration; every cycle with the
+   same stamp and the same cameras has the same valid ends and poses (1e-6 m, 1e-6 rad).
 """
 import csv
+import math
 import os
 import signal
 import subprocess
@@ -148,6 +152,49 @@ class EstimatorReplay(unittest.TestCase):
             bad_sent += 1
         self.assertGreater(bad_sent, 5)
         self.assertGreater(len(self.ends), 50, "the node stopped on bad input from cam5")
+
+    def test_5_node_and_bench_publish_the_same(self):
+        del self.ends[:]
+        del self.status[:]
+        # Quarter speed, so that the wall-clock max_wait never closes a cycle early.
+        self.play(self.bag, extra=("-r", "0.25"))
+        share = subprocess.run(["rospack", "find", PKG], capture_output=True, text=True).stdout.strip()
+        cycles_csv = os.path.join(self.tmp, "bench_cycles.csv")
+        # The node's configuration in estimator_replay.test.
+        out = subprocess.run([tool("bench_estimator"), self.bag,
+                              "--config", f"{share}/config/estimator_thesis_lab.yaml",
+                              "--param", "sync/camera_timeout=0.5", "--param", "sync/max_wait=0.2",
+                              "--cycles-csv", cycles_csv], capture_output=True, text=True)
+        self.assertEqual(out.returncode, 0, out.stdout + out.stderr)
+        bench = {}
+        for r in csv.DictReader(open(cycles_csv)):
+            c = bench.setdefault(int(r["stamp_ns"]), {"cams": frozenset(r["cameras"].split("+"))})
+            c[r["end"]] = (int(r["valid"]), [float(r[k]) for k in ("x", "y", "z", "qx", "qy", "qz", "qw")])
+        node_cams = {m.header.stamp.to_nsec(): frozenset(m.cameras_used) for m in self.status}
+        compared, differ = 0, []
+        for m in self.ends:
+            stamp = m.header.stamp.to_nsec()
+            b = bench.get(stamp)
+            if b is None or node_cams.get(stamp) != b["cams"]:
+                continue
+            compared += 1
+            for e in m.ends:
+                valid, pose = b[e.label]
+                if bool(valid) != e.valid:
+                    differ.append(f"{stamp} {e.label}: valid node {e.valid} bench {bool(valid)}")
+                    continue
+                if not e.valid:
+                    continue
+                p, q = e.pose.pose.position, e.pose.pose.orientation
+                dp = math.dist((p.x, p.y, p.z), pose[:3])
+                dot = abs(q.x * pose[3] + q.y * pose[4] + q.z * pose[5] + q.w * pose[6])
+                angle = 2 * math.acos(min(1.0, dot))
+                if dp > 1e-6 or angle > 1e-6:
+                    differ.append(f"{stamp} {e.label}: {dp:.2e} m, {angle:.2e} rad apart")
+        print(f"node/bench: {compared} cycles with the same cameras of {len(self.ends)} published "
+              f"and {len(bench)} benched (seed {SEED})")
+        self.assertGreater(compared, 60, f"too few cycles to compare (seed {SEED})")
+        self.assertEqual(differ, [], f"node and bench differ (seed {SEED}): {differ[:10]}")
 
 
 if __name__ == "__main__":
