@@ -42,6 +42,20 @@ void progress(double done, double total, double rate, bool quiet) {
   std::fflush(stderr);
 }
 
+/// The rig's static TF at scenario time `start` [s], latched like
+/// tf2_ros::StaticTransformBroadcaster's.
+void writeStaticTf(const sim::RigSimulator& sim, double start, rosbag::Bag* bag) {
+  tf2_msgs::TFMessage tf_static;
+  tf_static.transforms = simStaticTransforms(sim);
+  auto latched = boost::make_shared<std::map<std::string, std::string>>();
+  (*latched)["type"] = ros::message_traits::datatype<tf2_msgs::TFMessage>();
+  (*latched)["md5sum"] = ros::message_traits::md5sum<tf2_msgs::TFMessage>();
+  (*latched)["message_definition"] = ros::message_traits::definition<tf2_msgs::TFMessage>();
+  (*latched)["callerid"] = "/simulate_bag";
+  (*latched)["latching"] = "1";
+  bag->write("/tf_static", fromNs(sim.stampNs(start)), tf_static, latched);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -114,17 +128,7 @@ int main(int argc, char** argv) {
               << opt.profile << ", seed " << opt.seed << ", " << duration << " s -> " << out
               << "\n";
 
-    // Static TF, latched like tf2_ros::StaticTransformBroadcaster's.
-    tf2_msgs::TFMessage tf_static;
-    tf_static.transforms = simStaticTransforms(sim);
-    auto latched = boost::make_shared<std::map<std::string, std::string>>();
-    (*latched)["type"] = ros::message_traits::datatype<tf2_msgs::TFMessage>();
-    (*latched)["md5sum"] = ros::message_traits::md5sum<tf2_msgs::TFMessage>();
-    (*latched)["message_definition"] = ros::message_traits::definition<tf2_msgs::TFMessage>();
-    (*latched)["callerid"] = "/simulate_bag";
-    (*latched)["latching"] = "1";
-    const ros::Time t_first = fromNs(sim.stampNs(start));
-    bag.write("/tf_static", t_first, tf_static, latched);
+    writeStaticTf(sim, start, &bag);
 
     const auto captures = sim.captures(start, start + duration);
     const auto wall0 = std::chrono::steady_clock::now();

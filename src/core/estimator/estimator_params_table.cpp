@@ -13,6 +13,7 @@ namespace {
 using C = EstimatorConfig;
 #define P(key, field, unit, range, doc) DPP_PARAM(C, key, field, unit, range, doc)
 
+// Over 120 lines because it is the table itself: one row per parameter, nothing else.
 ParamTable<EstimatorConfig> makeEstimatorTable() {
   ParamTable<C> t{
       paramEnum<C>(
