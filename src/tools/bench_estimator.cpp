@@ -52,11 +52,26 @@ struct BenchOptions {
   std::vector<std::pair<std::string, std::string>> shortcuts, params;
 };
 
+/// Checks a KEY=VALUE against the pose_estimator parameter table (key, type, range) while the
+/// command line is parsed, so that a bad one exits 2 naming the option.
+void checkParam(const std::string& option, const std::string& key, const std::string& value) {
+  EstimatorNodeConfig scratch;
+  try {
+    applyParamString(estimatorNodeParamTable(), &scratch, key, value, option);
+  } catch (const InputError& e) {
+    throw CLI::ValidationError(option, e.what());
+  }
+}
+
 /// A shortcut option that sets one parameter table key.
 void addShortcut(CLI::App& app, BenchOptions& o, const std::string& name, const std::string& key,
                  const std::string& description) {
   app.add_option_function<std::string>(
-      name, [&o, key](const std::string& v) { o.shortcuts.emplace_back(key, v); },
+      name,
+      [&o, key, name](const std::string& v) {
+        checkParam(name, key, v);
+        o.shortcuts.emplace_back(key, v);
+      },
       description + " (--param " + key + "=VALUE)");
 }
 
@@ -92,6 +107,7 @@ BenchOptions parseArgs(int argc, char** argv) {
              const size_t eq = kv.find('=');
              if (eq == std::string::npos || eq == 0)
                throw CLI::ValidationError("--param", "expected KEY=VALUE, got '" + kv + "'");
+             checkParam("--param", kv.substr(0, eq), kv.substr(eq + 1));
              o.params.emplace_back(kv.substr(0, eq), kv.substr(eq + 1));
            }
          },
@@ -116,6 +132,8 @@ BenchOptions parseArgs(int argc, char** argv) {
            lo.precision(17), hi.precision(17);
            lo << "[" << v[0] << ", " << v[1] << ", " << v[2] << "]";
            hi << "[" << v[3] << ", " << v[4] << ", " << v[5] << "]";
+           checkParam("--work-zone", "work_zone/min", lo.str());
+           checkParam("--work-zone", "work_zone/max", hi.str());
            o.shortcuts.emplace_back("work_zone/min", lo.str());
            o.shortcuts.emplace_back("work_zone/max", hi.str());
          },
