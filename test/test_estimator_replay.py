@@ -187,13 +187,19 @@ class EstimatorReplay(unittest.TestCase):
                     continue
                 p, q = e.pose.pose.position, e.pose.pose.orientation
                 dp = math.dist((p.x, p.y, p.z), pose[:3])
-                dot = abs(q.x * pose[3] + q.y * pose[4] + q.z * pose[5] + q.w * pose[6])
-                angle = 2 * math.acos(min(1.0, dot))
+                qn, qb = (q.x, q.y, q.z, q.w), pose[3:]
+                sign = 1.0 if sum(a * b for a, b in zip(qn, qb)) >= 0 else -1.0
+                # The rotation between them, well conditioned near zero: 4 asin(|q1 - q2| / 2).
+                angle = 4 * math.asin(min(1.0, math.dist(qn, [sign * b for b in qb]) / 2))
                 if dp > 1e-6 or angle > 1e-6:
                     differ.append(f"{stamp} {e.label}: {dp:.2e} m, {angle:.2e} rad apart")
         print(f"node/bench: {compared} cycles with the same cameras of {len(self.ends)} published "
               f"and {len(bench)} benched (seed {SEED})")
-        self.assertGreater(compared, 60, f"too few cycles to compare (seed {SEED})")
+        sample_node = sorted((m.header.stamp.to_nsec(), sorted(node_cams.get(m.header.stamp.to_nsec(), [])))
+                             for m in self.ends)[:3]
+        sample_bench = sorted((k, sorted(v["cams"])) for k, v in bench.items())[:3]
+        self.assertGreater(compared, 60, f"too few cycles to compare (seed {SEED}); node's first "
+                           f"cycles {sample_node}, bench's {sample_bench}")
         self.assertEqual(differ, [], f"node and bench differ (seed {SEED}): {differ[:10]}")
 
 

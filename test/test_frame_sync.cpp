@@ -117,7 +117,14 @@ TEST(FrameSync, LateFramesAreCountedNotUsed) {
   EXPECT_EQ(sync.takeDropped(), std::vector<uint64_t>{2});
   // After a clock jump back (looped bag), reset accepts old stamps again.
   sync.reset();
-  EXPECT_TRUE(sync.add("a", 500000000, 2.0, 3));
+  EXPECT_TRUE(sync.add("a", 500000000, 2.5, 3));
+  // ... and waits for every camera again, even b, silent for more than camera_timeout (1 s).
+  EXPECT_TRUE(sync.poll(2.51).empty()) << "the first cycle after a reset must wait for b";
+  EXPECT_TRUE(sync.add("b", 510000000, 2.511, 4));
+  cycles = sync.poll(2.512);
+  ASSERT_EQ(cycles.size(), 1u);
+  EXPECT_TRUE(cycles[0].complete);
+  EXPECT_EQ(cycles[0].frames.size(), 2u);
 }
 
 TEST(FrameSync, BadConfigurationIsNamed) {

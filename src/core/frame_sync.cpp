@@ -120,6 +120,10 @@ void FrameSynchronizer::reset() {
     buf.clear();
   }
   closed_until_ns_ = INT64_MIN;
+  // As at start-up: the next frame makes every camera live again, so that the first cycle waits
+  // for all of them (cameras silent for camera_timeout before the reset would otherwise not be
+  // waited for, and the first cycle would close with the first frame alone).
+  started_ = false;
 }
 
 std::vector<std::string> FrameSynchronizer::liveCameras() const {

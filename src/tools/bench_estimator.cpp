@@ -320,7 +320,7 @@ int main(int argc, char** argv) {
       t.cycles_csv.open(opt.cycles_csv_path);
       if (!t.cycles_csv) fail("cannot write '", opt.cycles_csv_path, "'");
       t.cycles_csv << "stamp_ns,cameras,end,valid,fresh,x,y,z,qx,qy,qz,qw\n";
-      t.cycles_csv.precision(12);
+      t.cycles_csv.precision(17);
     }
     // Every frame arrives 10 ms after its capture; each poll's time is shared by its cycles.
     auto poll = [&](double now) {

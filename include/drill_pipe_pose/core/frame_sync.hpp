@@ -62,7 +62,8 @@ class FrameSynchronizer {
   /// Closes every cycle that is ready at arrival time `now` [s], oldest first.
   std::vector<Cycle> poll(double now);
 
-  /// Forgets all pending frames and the stamp history (e.g. after the clock jumped back).
+  /// Forgets all pending frames and the stamp history (e.g. after the clock jumped back); the
+  /// next frame starts afresh, every camera expected again as at start-up.
   void reset();
 
   const std::map<std::string, CameraSyncStats>& stats() const { return stats_; }
