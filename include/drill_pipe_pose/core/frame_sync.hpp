@@ -1,5 +1,5 @@
 #pragma once
-// Cycle forming over N unsynchronised cameras (DESIGN.md "Cycle"), ROS-free so it is unit-tested
+// Cycle forming over N unsynchronised cameras (docs/conventions.md, "Cycle"), ROS-free so it is unit-tested
 // and reused by the node and the bench. Per-camera buffers, never a hard N-way synchroniser: a
 // dead or late camera never stalls output.
 //

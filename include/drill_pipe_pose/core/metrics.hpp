@@ -1,5 +1,5 @@
 #pragma once
-// Error metrics of DESIGN.md, shared by the evaluator, the bench and the tests. Roll about the
+// Error metrics (docs/conventions.md, "Error metrics"), shared by the evaluator, the bench and the tests. Roll about the
 // pipe axis is never scored.
 
 #include <Eigen/Geometry>
