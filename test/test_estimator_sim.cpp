@@ -124,10 +124,10 @@ void print(const std::string& name, const SequenceStats& s) {
 
 }  // namespace
 
-// Bounds of what the pipeline achieves today on 30 rendered cycles (the real goals
-// are issue 4's targets: 5 mm / 0.5 deg; this scenario's box-end shows only 0.23 m of tong
-// above the floor). No axis direction may come out flipped: the symmetric free-space score
-// decides it, and an ambiguous one is rejected rather than published.
+// Bounds of what the pipeline achieves today on 30 rendered cycles (the real goals are issue 4's
+// targets: 5 mm / 0.5 deg; this scenario's box-end shows only 0.23 m of tong above the floor). No
+// axis direction may come out flipped: the symmetric free-space score decides it, and an ambiguous
+// one is rejected rather than published.
 TEST(EstimatorOnSimulator, ThesisVerticalCalibrated) {
   const SequenceStats s = runScenario("thesis_vertical", "kinect_v2_calibrated", 7, 30);
   print("thesis_vertical", s);

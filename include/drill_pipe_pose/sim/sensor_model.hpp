@@ -69,8 +69,8 @@ struct SensorEffects {
   double flying_jump = 0.05;         ///< [m] neighbour depth difference that makes an edge
   // --- systematic errors
   /// Per-camera residual depth offset, uniform in +-max_depth_offset, seeded per camera.
-  /// Calibrated: <= 5 mm, field: <= 10 mm (what a calibration leaves); the uncalibrated Kinect v2 offset is several cm
-  /// (Lachat et al., ISPRS 2015; Fankhauser et al. 2015).
+  /// Calibrated: <= 5 mm, field: <= 10 mm (what a calibration leaves); the uncalibrated Kinect v2
+  /// offset is several cm (Lachat et al., ISPRS 2015; Fankhauser et al. 2015).
   bool depth_offset = true;
   double max_depth_offset = 0.005;  ///< [m]
   /// Interference bursts between overlapping ToF cameras (Sarbolandi et al., CVIU 2015, Sec. 7:
