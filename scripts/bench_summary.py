@@ -87,6 +87,7 @@ def markdown(rows, args):
     cmds = read_commands(args.commands)
     md = [BEGIN, "## Benchmark (scripts/bench)", ""]
     md.append(f"Written by `{args.run}` on {args.header}.")
+    md.append("")
     md.append(f"Bags: {args.duration} s of the thesis lab rig (six cameras at 30 Hz), seed 1, "
               "cropped SensorFrames, profile `kinect_v2_calibrated` (`kinect_v2_field` for "
               "`*_field`); default estimator configuration, one thread; thesis_baseline only on "
@@ -104,6 +105,8 @@ def markdown(rows, args):
         if kind in ("bag", "estimate"):
             md.append(f"- {name} ({'bag' if kind == 'bag' else 'estimates'}): `{cmd}`")
     live = open(args.live).read().rstrip() if args.live and os.path.exists(args.live) else ""
+    if args.repo:  # paths as seen from the repository root
+        live = live.replace(args.repo.rstrip("/") + "/", "")
     if live:
         md += ["", "### Live replay at 1x through the node", ""]
         md.append("Six cameras at 30 Hz through the `pose_estimator` node (its default `threads`), "
@@ -141,6 +144,7 @@ def main():
     ap.add_argument("--run", default="scripts/bench", help="the bench command line")
     ap.add_argument("--duration", default="10", help="bag length [s]")
     ap.add_argument("--baseline-cycles", default="3", help="cycles of thesis_baseline")
+    ap.add_argument("--repo", help="repository root, left out of the paths in --live's text")
     args = ap.parse_args()
     rows = parse(args.results)
     if not rows:
