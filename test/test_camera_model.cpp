@@ -11,7 +11,8 @@ using namespace drill_pipe_pose;
 
 namespace {
 
-// Kinect v2 SD depth and QHD colour intrinsics (DESIGN.md), as a CameraInfo would carry them.
+// Kinect v2 SD depth and QHD colour intrinsics (iai_kinect2 factory values), as a CameraInfo would
+// carry them.
 CameraInfoData kinectDepthInfo() {
   CameraInfoData c;
   c.frame_id = "cam1_ir_optical_frame";

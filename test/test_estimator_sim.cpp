@@ -124,10 +124,10 @@ void print(const std::string& name, const SequenceStats& s) {
 
 }  // namespace
 
-// Bounds of what the pipeline achieves today on 30 rendered cycles (see the README/issue 4
-// targets for the real goals: 5 mm / 0.5 deg; this scenario's box-end shows only 0.23 m of tong
-// above the floor). No axis direction may come out flipped: the symmetric free-space score
-// decides it, and an ambiguous one is rejected rather than published.
+// Bounds of what the pipeline achieves today on 30 rendered cycles (the real goals are issue 4's
+// targets: 5 mm / 0.5 deg; this scenario's box-end shows only 0.23 m of tong above the floor). No
+// axis direction may come out flipped: the symmetric free-space score decides it, and an ambiguous
+// one is rejected rather than published.
 TEST(EstimatorOnSimulator, ThesisVerticalCalibrated) {
   const SequenceStats s = runScenario("thesis_vertical", "kinect_v2_calibrated", 7, 30);
   print("thesis_vertical", s);
@@ -214,7 +214,7 @@ TEST(EstimatorOnSimulator, CroppedDepthGivesTheSamePosesAsFull) {
 // scripts/bench's (7, not 1): mean 3D error at most 5 mm, spread of each coordinate at most
 // 3 mm, mean axis error at most 0.5 deg, for each end. Its share of cycles within 1 cm / 1 deg
 // is printed, not asserted: from a cold start at 7 m the box end misses its first cycles
-// (README, "Measured results").
+// (docs/results.md).
 TEST(EstimatorOnSimulator, ThesisVerticalErrorTargetsHoldOnASecondSeed) {
   const SequenceStats s = runScenario("thesis_vertical", "kinect_v2_calibrated", 7, 300);
   print("thesis_vertical (seed 7)", s);

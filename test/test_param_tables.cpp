@@ -1,6 +1,6 @@
 // The parameter tables (core/param_table.hpp): every row round-trips, out-of-range values are
 // rejected naming the key, applyParam / loadEstimatorYaml on valid and invalid input, the YAML in
-// config/ loads, and the README's parameter tables are the generated ones.
+// config/ loads, and docs/parameters.md holds the generated tables.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -250,8 +250,8 @@ TEST(LoadEstimatorYaml, ReadsNestedKeysAndRejectsBadFiles) {
 }
 
 TEST(ParamTables, ReadmeTablesAreTheGeneratedOnes) {
-  // Regenerate with: rosrun drill_pipe_pose param_tables --update README.md
-  const std::string readme = readFile(kSource + "/README.md");
+  // Regenerate with: rosrun drill_pipe_pose param_tables --update docs/parameters.md
+  const std::string readme = readFile(kSource + "/docs/parameters.md");
   const std::vector<std::pair<std::string, std::string>> sections = {
       {"pose_estimator parameters", estimatorParamsMarkdown()},
       {"pipe_detector parameters", pipeDetectorParamsMarkdown()},
@@ -260,6 +260,6 @@ TEST(ParamTables, ReadmeTablesAreTheGeneratedOnes) {
   for (const auto& [name, text] : sections) {
     std::string in_readme;
     ASSERT_NO_THROW(in_readme = generatedSection(readme, name)) << name;
-    EXPECT_EQ(in_readme, text) << name << ": run param_tables --update README.md";
+    EXPECT_EQ(in_readme, text) << name << ": run param_tables --update docs/parameters.md";
   }
 }

@@ -213,7 +213,7 @@ TEST(SimRender, AxialNoiseMatchesFankhauser) {
                 sigma * 1e3, expected * 1e3, n);
     EXPECT_NEAR(sigma / expected, 1.0, 0.10) << "distance " << dist << " seed " << opt.seed;
   }
-  // The formula itself: ~6.5 mm at 5 m, ~12.7 mm at 7 m head-on (DESIGN.md).
+  // The formula itself: ~6.5 mm at 5 m, ~12.7 mm at 7 m head-on (Fankhauser et al. 2015).
   EXPECT_NEAR(axialNoiseSigma(5.0, 0.0) * 1e3, 6.5, 0.05);
   EXPECT_NEAR(axialNoiseSigma(7.0, 0.0) * 1e3, 12.7, 0.05);
 }

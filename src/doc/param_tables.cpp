@@ -1,9 +1,9 @@
-// param_tables: the README's parameter tables, generated from the nodes' parameter tables
-// (core/estimator/estimator_params_table.hpp, core/detector/detector_node_params.hpp,
+// param_tables: the parameter reference (docs/parameters.md), generated from the nodes'
+// parameter tables (core/estimator/estimator_params_table.hpp, core/detector/detector_node_params.hpp,
 // sim/simulator_node_params.hpp).
 //   param_tables                     print the three tables (Markdown)
-//   param_tables --check README.md   exit 1 when the README's generated sections differ
-//   param_tables --update README.md  rewrite the README's generated sections
+//   param_tables --check docs/parameters.md   exit 1 when its generated sections differ
+//   param_tables --update docs/parameters.md  rewrite its generated sections
 #include <CLI/CLI.hpp>
 
 #include <fstream>
@@ -39,10 +39,11 @@ std::string readFile(const std::string& path) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"The README's parameter tables, generated from the nodes' parameter tables."};
+  CLI::App app{"The parameter reference's tables (docs/parameters.md), generated from the nodes' "
+               "parameter tables."};
   std::string check, update;
-  app.add_option("--check", check, "README to compare (exit 1 when it differs)");
-  app.add_option("--update", update, "README whose generated sections are rewritten");
+  app.add_option("--check", check, "page to compare (exit 1 when it differs)");
+  app.add_option("--update", update, "page whose generated sections are rewritten");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

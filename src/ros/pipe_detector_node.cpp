@@ -4,7 +4,7 @@
 // drill_pipe_pose/SensorFrame per colour frame on <cam>/sensor_frame, stamped with the colour
 // image's capture time (never the publish time).
 //
-// Parameters (private): the table in core/detector/detector_node_params.hpp (README lists it).
+// Parameters (private): the table in core/detector/detector_node_params.hpp (docs/parameters.md lists it).
 // Publishes <cam>/sensor_frame and ~debug_image (bgr8, annotated; only while subscribed).
 #include <drill_pipe_pose/SensorFrame.h>
 #include <message_filters/subscriber.h>

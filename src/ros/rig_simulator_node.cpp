@@ -1,5 +1,5 @@
 // rig_simulator: publishes what a simulated rig's sensor nodes would publish, live, with ground
-// truth. Parameters (private): the table in sim/simulator_node_params.hpp (README lists it).
+// truth. Parameters (private): the table in sim/simulator_node_params.hpp (docs/parameters.md lists it).
 // When rendering cannot keep up with `rate`, simulation time (and /clock) slows down to what it
 // can render (with publish_clock), or frames are skipped with a throttled warning (without).
 #include <drill_pipe_pose/SensorFrame.h>

@@ -15,8 +15,8 @@ namespace drill_pipe_pose::sim {
 SensorIntrinsics SensorIntrinsics::kinectV2() {
   SensorIntrinsics s;
   s.name = "kinect_v2";
-  // DESIGN.md "Algorithm notes": Kinect v2 depth 512x424 and QHD colour 960x540 (iai_kinect2
-  // factory calibration values of a typical unit).
+  // Kinect v2: depth 512x424 and QHD colour 960x540 (iai_kinect2 factory calibration values of
+  // a typical unit).
   s.depth = PinholeCamera::fromIntrinsics(512, 424, 365.4, 365.4, 260.9, 205.6);
   s.color = PinholeCamera::fromIntrinsics(960, 540, 540.7, 540.7, 479.75, 269.75);
   s.T_color_depth = Eigen::Isometry3d::Identity();
@@ -60,7 +60,7 @@ SensorEffects sensorProfile(const std::string& name) {
   if (name == "kinect_v2_calibrated") return e;
   if (name == "kinect_v2_field") {
     e.calibration_error = true;
-    e.max_depth_offset = 0.010;  // DESIGN.md: field depth offsets up to 10 mm
+    e.max_depth_offset = 0.010;  // kinect_v2_field: depth offsets up to 10 mm (docs/conventions.md)
     e.interference = true;
     return e;
   }

@@ -1,6 +1,6 @@
 #pragma once
-// The conventions that bind the parts together (DESIGN.md "Conventions"; the README has the same
-// table). Every topic, frame and label name used in code comes from here.
+// The conventions that bind the parts together, written out in docs/conventions.md. Every topic,
+// frame and label name used in code comes from here.
 
 #include <string>
 

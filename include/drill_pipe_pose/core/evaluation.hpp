@@ -1,6 +1,6 @@
 #pragma once
 // Scoring estimates against ground truth (the `evaluate` tool, the bench and the tests): ground
-// truth interpolated at each cycle stamp, errors per DESIGN.md metrics, statistics per end.
+// truth interpolated at each cycle stamp, errors per core/metrics.hpp, statistics per end.
 
 #include <Eigen/Geometry>
 #include <array>
@@ -66,7 +66,7 @@ struct EndEvaluation {
 };
 
 struct EvaluationOptions {
-  double expected_rate_hz = 30.0;  ///< expected cycles per second of ground truth (DESIGN.md)
+  double expected_rate_hz = 30.0;  ///< expected cycles per second of ground truth (the cycle rate)
   /// Expected cycles; 0 = expected_rate_hz * ground-truth span.
   size_t expected_cycles = 0;
   double moving_speed = 0.02;  ///< [m/s] faster counts as moving (lag statistics)

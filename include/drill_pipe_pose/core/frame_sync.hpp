@@ -1,7 +1,7 @@
 #pragma once
-// Cycle forming over N unsynchronised cameras (DESIGN.md "Cycle"), ROS-free so it is unit-tested
-// and reused by the node and the bench. Per-camera buffers, never a hard N-way synchroniser: a
-// dead or late camera never stalls output.
+// Cycle forming over N unsynchronised cameras (docs/conventions.md, "Cycle"), ROS-free so it is
+// unit-tested and reused by the node and the bench. Per-camera buffers, never a hard N-way
+// synchroniser: a dead or late camera never stalls output.
 //
 // A cycle is anchored at the oldest pending capture stamp t_a and takes from each camera its
 // oldest frame with stamp in [t_a, t_a + window) (a second one, from jitter, waits for the next

@@ -1,6 +1,6 @@
 #pragma once
-// Error metrics of DESIGN.md, shared by the evaluator, the bench and the tests. Roll about the
-// pipe axis is never scored.
+// Error metrics (docs/conventions.md, "Error metrics"), shared by the evaluator, the bench and the
+// tests. Roll about the pipe axis is never scored.
 
 #include <Eigen/Geometry>
 #include <string>

@@ -2,7 +2,7 @@
 // Declarative parameter tables: one row per parameter (name, type, unit, allowed range, one line
 // of documentation, accessor to the configuration field). The default of a row is the field's
 // value in a default-constructed configuration, so the struct's initialisers are the one place
-// defaults live. Loading (ROS, YAML, `key=value` strings), validation and the README's parameter
+// defaults live. Loading (ROS, YAML, `key=value` strings), validation and the parameter reference's
 // tables all come from the table; the same rows could generate a dynamic_reconfigure `.cfg`
 // (name, type, default, min, max, doc).
 //
@@ -117,7 +117,7 @@ std::string paramsMarkdown(const std::vector<ParamInfo>& rows,
 /// leaves). Throws InputError naming `source` when the file cannot be read.
 std::vector<std::pair<std::string, YAML::Node>> flattenYamlFile(const std::string& path);
 
-/// Generated sections of a text file (the README): the lines between
+/// Generated sections of a text file (docs/parameters.md): the lines between
 /// "<!-- BEGIN GENERATED name -->" and "<!-- END GENERATED name -->". Throws InputError when the
 /// markers are missing.
 std::string generatedSection(const std::string& text, const std::string& name);

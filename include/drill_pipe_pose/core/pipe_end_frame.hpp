@@ -1,6 +1,6 @@
 #pragma once
-// The pipe-end frame convention (DESIGN.md): z along the axis out of the joint toward its mate,
-// roll about z unobservable and therefore canonical.
+// The pipe-end frame convention (docs/conventions.md): z along the axis out of the joint toward its
+// mate, roll about z unobservable and therefore canonical.
 
 #include <Eigen/Geometry>
 

@@ -1,7 +1,7 @@
 #pragma once
-// The rig calibration file (DESIGN.md): one YAML file per rig with `world -> <cam>_link` for every
-// camera (translation [m] + unit quaternion x y z w). One schema, one loader, used by the
-// simulator, the launch files (through the rig_tf_publisher node) and the tools.
+// The rig calibration file (docs/conventions.md, "Rig file"): one YAML file per rig with `world ->
+// <cam>_link` for every camera (translation [m] + unit quaternion x y z w). One schema, one loader,
+// used by the simulator, the launch files (through the rig_tf_publisher node) and the tools.
 //
 //   world_frame: world            # optional, default "world"
 //   cameras:

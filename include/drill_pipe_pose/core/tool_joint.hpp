@@ -1,12 +1,12 @@
 #pragma once
-// Parametric tool-joint geometry (box-end, pin-end) as bodies of revolution, in the pipe-end
-// frame of DESIGN.md: origin on the axis at the make-up shoulder (box: the box's end face; pin:
+// Parametric tool-joint geometry (box-end, pin-end) as bodies of revolution, in the pipe-end frame
+// (docs/conventions.md): origin on the axis at the make-up shoulder (box: the box's end face; pin:
 // the shoulder from which the pin cone starts), z along the axis pointing out of the joint toward
 // its mate (box: out of the box opening; pin: toward the pin nose). Metres.
 //
-// Defaults are a 5" NC50 drill pipe (DESIGN.md; dimensions from memory of API 5DP, treat as
-// defaults, not as a standard). Models are truncated like the thesis's lab samples: a short piece
-// of tube below the elevator taper, closed by a flat annulus.
+// Defaults are a 5" NC50 drill pipe (dimensions from memory of API 5DP: treat them as defaults, not
+// as a standard). Models are truncated like the thesis's lab samples: a short piece of tube below
+// the elevator taper, closed by a flat annulus.
 
 #include <Eigen/Core>
 #include <cstdint>

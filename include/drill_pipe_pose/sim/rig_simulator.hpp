@@ -3,7 +3,7 @@
 // colour, CameraInfos, optional SIMULATED detections) for a scene, with ground truth. ROS-free;
 // the rig_simulator node and the simulate_bag tool wrap it.
 //
-// Frames (DESIGN.md): <cam>_link == <cam>_rgb_optical_frame (colour camera, z forward);
+// Frames (docs/conventions.md): <cam>_link == <cam>_rgb_optical_frame (colour camera, z forward);
 // <cam>_ir_optical_frame = depth camera, T_link_depth away. The rig file gives the TRUE
 // world -> <cam>_link used for rendering; publishedT_world_link() is what TF should carry (it
 // differs when the profile injects calibration errors).
@@ -43,7 +43,7 @@ struct SimulatorOptions {
   int64_t stamp_origin_ns = 0;
   /// Overrides the profile's effects entirely when set (start from sensorProfile(profile)).
   std::optional<SensorEffects> effects;
-  DetectorErrorModel detector;  ///< DESIGN.md defaults
+  DetectorErrorModel detector;  ///< the simulated detector defaults of docs/conventions.md
 };
 
 /// One capture of the schedule.

@@ -19,7 +19,7 @@
 //     - name: box_sample
 //       type: tool_joint            # a single tool joint with a short tube (lab sample) ...
 //       end: box_end                # box_end | pin_end
-//       pose: POSE                  # T_world_end: the pipe-end frame of DESIGN.md
+//       pose: POSE                  # T_world_end: the pipe-end frame (docs/conventions.md)
 //       tube_length: 0.25           # optional [m]: tube left below the taper
 //     - name: drill_pipe
 //       type: pipe                  # ... or a whole pipe: box end, tube, pin end

@@ -1,7 +1,7 @@
 #pragma once
 // The RGB-D sensor model: intrinsics and colour/depth extrinsics of one sensor type (from
-// config/sensors/<sensor>.yaml), and the switchable sensor effects of the three profiles of
-// DESIGN.md ("Sensor profiles"). Every default cites its source.
+// config/sensors/<sensor>.yaml), and the switchable sensor effects of the three profiles
+// (docs/conventions.md, "Sensor profiles"). Every default cites its source.
 
 #include <Eigen/Geometry>
 #include <string>
@@ -69,8 +69,8 @@ struct SensorEffects {
   double flying_jump = 0.05;         ///< [m] neighbour depth difference that makes an edge
   // --- systematic errors
   /// Per-camera residual depth offset, uniform in +-max_depth_offset, seeded per camera.
-  /// Calibrated: <= 5 mm (DESIGN.md profiles); the uncalibrated Kinect v2 offset is several cm
-  /// (Lachat et al., ISPRS 2015; Fankhauser et al. 2015).
+  /// Calibrated: <= 5 mm, field: <= 10 mm (what a calibration leaves); the uncalibrated Kinect v2
+  /// offset is several cm (Lachat et al., ISPRS 2015; Fankhauser et al. 2015).
   bool depth_offset = true;
   double max_depth_offset = 0.005;  ///< [m]
   /// Interference bursts between overlapping ToF cameras (Sarbolandi et al., CVIU 2015, Sec. 7:
@@ -91,12 +91,12 @@ struct SensorEffects {
   // --- calibration
   /// Calibration error injection: the PUBLISHED world -> <cam>_link differs from the true one by
   /// a translation of `calib_translation_error` and a rotation of `calib_rotation_error_deg`
-  /// about seeded random directions (DESIGN.md kinect_v2_field).
+  /// about seeded random directions (the kinect_v2_field profile).
   bool calibration_error = false;
   double calib_translation_error = 0.005;  ///< [m]
   double calib_rotation_error_deg = 0.2;   ///< [deg]
   // --- scene realism
-  /// Rendered tool joints differ from the nominal model as worn joints do (DESIGN.md):
+  /// Rendered tool joints differ from the nominal model as worn joints do:
   /// tool-joint OD reduced by up to max_od_wear, tong length by up to max_tong_wear, seeded per
   /// pipe; mud patches of lower reflectivity.
   bool wear = true;
@@ -109,7 +109,7 @@ struct SensorEffects {
   double color_noise_sigma = 3.0;  ///< [DN] Gaussian per channel (typical CMOS at indoor light)
 };
 
-/// The named profiles of DESIGN.md: "ideal", "kinect_v2_calibrated", "kinect_v2_field".
+/// The named profiles (docs/conventions.md): "ideal", "kinect_v2_calibrated", "kinect_v2_field".
 /// Throws InputError for any other name.
 SensorEffects sensorProfile(const std::string& name);
 

@@ -23,7 +23,7 @@ struct RigSimulatorNodeConfig {
 
 const ParamTable<RigSimulatorNodeConfig>& rigSimulatorParamTable();
 
-/// The README's rig_simulator parameter table (Markdown).
+/// The rig_simulator parameter table of docs/parameters.md (Markdown).
 std::string rigSimulatorParamsMarkdown();
 
 }  // namespace drill_pipe_pose

@@ -1,7 +1,7 @@
 #pragma once
 // The pipe_detector node's parameter table (core/param_table.hpp): what the node reads, with
 // defaults in the struct below (and in detector::DetectorConfig / DepthCropConfig). The node's
-// loader and the README's pipe_detector table (checked by a test) come from it.
+// loader and the pipe_detector table of docs/parameters.md (checked by a test) come from it.
 
 #include <string>
 #include <vector>
@@ -28,7 +28,7 @@ struct PipeDetectorNodeConfig {
 
 const ParamTable<PipeDetectorNodeConfig>& pipeDetectorParamTable();
 
-/// The README's pipe_detector parameter table (Markdown).
+/// The pipe_detector parameter table of docs/parameters.md (Markdown).
 std::string pipeDetectorParamsMarkdown();
 
 }  // namespace drill_pipe_pose

@@ -4,7 +4,7 @@
 // colour image, letterboxed to the network input. ROS-free.
 //
 // Pixels: the full colour image, x right, y down; boxes come back in full-image pixels with the
-// labels box_end / pin_end (DESIGN.md conventions).
+// labels box_end / pin_end (docs/conventions.md).
 
 #include <opencv2/core.hpp>
 

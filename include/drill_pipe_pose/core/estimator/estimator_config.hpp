@@ -3,7 +3,7 @@
 // the comments. These initialisers are the one place the defaults live: they are the
 // pose_estimator node's defaults too. Every field has one row in the parameter table
 // (estimator_params_table.hpp) giving its key, unit, range and doc, from which the node's loader,
-// validateConfig, the tools' --config / --param and the README's parameter table follow.
+// validateConfig, the tools' --config / --param and the parameter reference (docs/parameters.md) follow.
 
 #include <Eigen/Core>
 #include <cstdint>
@@ -74,10 +74,10 @@ struct EstimatorConfig {
     /// the point, leaves it out (clutter beside the joint). A box farther away (another pipe's
     /// end, a false detection) says nothing about the point, since the detector may have missed
     /// the joint in this camera: the camera does not vote, as a camera with no box of the label
-    /// does not. The clutter lies within 0.5 m of the pipe. In cluttered, a camera whose
-    /// only pin-end box was on the other pipe's far end vetoed the pin end it had missed (10 %
-    /// of detections are missed): 81 % of cycles within 2 cm / 2 deg, 97 % with 0.5.
-    /// 0 = every camera with a box of the label votes.
+    /// does not. Clutter lies within 0.5 m of the pipe; chosen on the cluttered scene, where a
+    /// camera whose only pin-end box was on the other pipe's far end vetoed the pin end it had
+    /// missed (docs/results.md has the figures with and without). 0 = every camera with a box
+    /// of the label votes.
     double box_reach = 0.5;
   } carving;
 
@@ -88,10 +88,10 @@ struct EstimatorConfig {
   /// there is no track, and at the track's periodic decisions, the `max_instances` largest are
   /// decided; each keeps a memory of its decisions' costs (mean over the last
   /// `memory_decisions`), and the instance with the lowest mean cost is the end (chooseInstance
-  /// in stages.hpp has the rules).
+  /// in instances.hpp has the rules).
   struct Instances {
-    /// [m] grid cell edge (see euclideanClusters). 0.04 splits the sparse far side of an angled
-    /// joint off (thesis_angled box end: 82 % within 1 cm / 1 deg instead of 90 %).
+    /// [m] grid cell edge (see euclideanClusters). Chosen on thesis_angled: 0.04 splits the
+    /// sparse far side of an angled joint off.
     double cluster_tolerance = 0.08;
     int max_instances = 3;            ///< clusters decided (the track's and the largest others)
     /// [m] a track follows the cluster with a point this close to its predicted origin; a
@@ -106,14 +106,13 @@ struct EstimatorConfig {
     int min_decisions = 3;
     int memory_decisions = 30;  ///< decisions averaged per instance (running mean)
     /// [m] Two instances whose tool-joint radii, measured at their decisions (radiusOffset in
-    /// stages.hpp) and averaged over at least min_decisions of them, differ by more than this
+    /// profile_registration.hpp) and averaged over at least min_decisions of them, differ by more than this
     /// are two pipe sizes: the one further from the model's radius does not compete (0: off).
     /// Relative, because a rig's common depth offset scales every measured radius alike (the
     /// kinect_v2_field profile measured the right joint more than 2.5 mm off in some decisions);
     /// so a lone joint of another size is not recognised. A 4.5" pipe's 6 1/4" joint is 4.75 mm
-    /// thinner than a 5" pipe's 6 5/8" one: in cluttered (7 m) the two measured about -3 and
-    /// +1 mm, 1 mm std per decision (a temporary debug print, README "Measured results"); worn
-    /// joints are at most 1 mm thinner (docs/conventions.md, sensor profiles).
+    /// thinner than a 5" pipe's 6 5/8" one, a worn joint at most 1 mm thinner than nominal
+    /// (docs/conventions.md, sensor profiles): 2.5 mm lies between (chosen on cluttered).
     double radius_difference = 0.0025;
     double memory_s = 3.0;      ///< [s] an instance not decided for this long is forgotten
   } instances;
@@ -148,15 +147,16 @@ struct EstimatorConfig {
     /// Pixels whose camera ray misses the model next to the joint's sides (lateral noise moved
     /// them outward) count in the refinement at their closest-point distance (refineProfile)...
     bool silhouette_points = true;
-    /// ...while the fit explains at least this fraction of its points (dark steel's fits explain
-    /// 40-70 %: the mixed pixels at its silhouette tilted a box-end fit outside its 3-sigma).
+    /// ...while the fit explains at least this fraction of its points (chosen on dark_steel, whose
+    /// fits explain fewer: the mixed pixels at its silhouette tilted a box-end fit outside its
+    /// 3-sigma).
     double silhouette_min_inlier_fraction = 0.7;
     /// [mm] Per point, the final fit's depth sigma grows toward grazing incidence by this times
     /// z^1.5 (theta / (pi/2 - theta))^2 (the Kinect v2 model's incidence term, 0.1, times
-    /// noise.scale: 0.12). Off by default: on the simulated thesis_angled (10 s bench bag) it
-    /// halves the tilt bias (0.64 -> 0.31 deg at 0.12) but leaves the position to the frontal
-    /// points, which the cameras' depth offsets move (4.9 -> 7.0 mm; thesis_vertical's box end
-    /// 4.3 -> 5.2 mm). A rig whose depth offsets are calibrated out may prefer it. 0 = off.
+    /// noise.scale: 0.12). Off by default: on the simulated thesis_angled it reduces the tilt
+    /// bias but leaves the position to the frontal points, which the cameras' depth offsets
+    /// move (docs/results.md). A rig whose depth offsets are calibrated out may prefer it.
+    /// 0 = off.
     double incidence_noise = 0.0;
     double truncation = 0.025;   ///< [m] robust cost: residuals beyond this cost as much as this
     /// [m] only the part of the tong within (tong length - wear_margin) of the shoulder is trusted
@@ -184,7 +184,7 @@ struct EstimatorConfig {
     bool long_tong_search = false;
     double max_rms = 0.02;             ///< [m] a fit with a larger inlier RMS residual is invalid
     /// A fit with fewer inliers (of the points the refinement used: those above a support) is
-    /// invalid. Painted joints' fits explain 60-90 % of them, dark steel's 40-60 %.
+    /// invalid (chosen between painted joints' fits and dark steel's, which explain fewer).
     double min_inlier_fraction = 0.6;
     /// [m], [rad] a fit whose reported std along the axis / of the tilt is larger is invalid (the
     /// points do not determine the pose: nothing is published rather than a guess).

@@ -4,7 +4,7 @@
 // type, unit, allowed range and one line of documentation. Defaults are the struct's initialisers
 // (estimator_config.hpp), which are also the pose_estimator node's defaults. From this table come
 // the node's loader, validateConfig's range checks, the tools' --config / --param, and the
-// README's parameter table (a test checks that README.md matches estimatorParamsMarkdown()).
+// parameter reference (a test checks that docs/parameters.md matches estimatorParamsMarkdown()).
 //
 // Adding a parameter: a field with its default in estimator_config.hpp, one DPP_PARAM line in
 // src/core/estimator/estimator_params_table.cpp, and the code that uses it.
@@ -57,7 +57,7 @@ void loadEstimatorNodeYaml(EstimatorNodeConfig* config, const std::string& path)
 /// Ranges of every row, `cameras` given, and validateConfig. Throws InputError naming the key.
 void validateEstimatorNodeConfig(const EstimatorNodeConfig& config);
 
-/// The README's pose_estimator parameter table (Markdown, one row per key, node defaults).
+/// The pose_estimator parameter table of docs/parameters.md (Markdown, one row per key, node defaults).
 std::string estimatorParamsMarkdown();
 
 }  // namespace drill_pipe_pose
