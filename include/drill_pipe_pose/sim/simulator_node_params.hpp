@@ -1,7 +1,7 @@
 #pragma once
 // The rig_simulator node's parameter table (core/param_table.hpp): what the node reads, with
-// defaults in the struct below (and in sim::SimulatorOptions). The node's loader and the README's
-// rig_simulator table (checked by a test) come from it.
+// defaults in the struct below (and in sim::SimulatorOptions). The node's loader and the
+// rig_simulator table of docs/parameters.md (checked by a test) come from it.
 
 #include <string>
 
