@@ -1,7 +1,7 @@
 // pose_estimator: the central node. N cameras' SensorFrames -> per-end poses.
 //
-// Thin by design: parameters into structs, messages and TF into core types, the ROS-free
-// FrameSynchronizer and PoseEstimator do the work, results out as messages. See README "Topics".
+// Thin by design: parameters into structs, messages and TF into core types; the ROS-free
+// CycleRunner does the work (as in bench_estimator); results out as messages (README "Topics").
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <drill_pipe_pose/EstimatorStatus.h>
 #include <drill_pipe_pose/PipeEnds.h>

@@ -11,7 +11,7 @@
 // Configuration, in this order: the node's defaults; --config (the YAML file the node loads,
 // e.g. config/estimator_thesis_lab.yaml; its cameras are replaced by the bag's); the shortcut
 // options (--work-zone, --threads, --no-temporal, ...); then every --param, any key of the
-// pose_estimator parameter table (README "Parameters"), e.g. --param carving/vote_fraction=0.6.
+// pose_estimator parameter table (docs/parameters.md), e.g. --param carving/vote_fraction=0.6.
 // "Valid" is the node's: a pose no older than max_pose_age (fresh or the last one repeated).
 // Cycles are formed as the node forms them, each frame arriving 10 ms after its capture stamp.
 // Exit status 0; 1 on a bad bag or configuration; 2 on a bad command line.

@@ -4,7 +4,8 @@
 //   rosrun drill_pipe_pose mesh_to_cloud MESH OUT.pcd [--spacing 0.003] [--scale 1] [--seed 1]
 //
 // --scale converts units (0.001 for a CAD model in millimetres). The model must be expressed in
-// the pipe-end frame of the README (origin at the shoulder on the axis, z out toward the mate).
+// the pipe-end frame of docs/conventions.md (origin at the shoulder on the axis, z out toward
+// the mate).
 // Exit status 0; 1 when the mesh cannot be read or the cloud written; 2 on a bad command line.
 #include <iostream>
 #include <string>
