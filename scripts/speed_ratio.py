@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Speed of two builds of bench_estimator on one bag, as the median of pairwise ratios.
 
-    scripts/speed_ratio.py OLD_BENCH NEW_BENCH BAG [--runs N] [-- EXTRA BENCH OPTIONS]
+    scripts/speed_ratio.py OLD_BENCH NEW_BENCH BAG [--runs N] [-- OPTIONS FOR BOTH BUILDS]
 
 Runs OLD and NEW alternately N times (default 5) on BAG, single-threaded (--threads 1, or
 --param threads=1 for a build that takes --param), reads each run's "time per cycle" line
@@ -39,8 +39,10 @@ def main():
     ap.add_argument("new")
     ap.add_argument("bag")
     ap.add_argument("--runs", type=int, default=5, help="pairs of runs (default 5)")
-    ap.add_argument("extra", nargs="*", help="options for both builds (after --)")
-    args = ap.parse_args()
+    args, extra = ap.parse_known_args()
+    if extra and extra[0] == "--":
+        extra = extra[1:]
+    args.extra = extra
     if args.runs < 1:
         ap.error("--runs must be >= 1")
     ratios_med, ratios_p95 = [], []
