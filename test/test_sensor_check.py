@@ -171,4 +171,9 @@ class SensorCheckCommandLine(unittest.TestCase):
 
 
 if __name__ == "__main__":
-    unittest.main()
+    # ctest (CMakeLists.txt): test_sensor_check.py --xml OUT.xml; alone: no arguments.
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    from junit_result import run_suite
+    xml = sys.argv[2] if len(sys.argv) == 3 and sys.argv[1] == "--xml" else None
+    sys.exit(run_suite(unittest.defaultTestLoader.loadTestsFromModule(sys.modules[__name__]),
+                       "sensor_check", xml))

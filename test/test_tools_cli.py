@@ -15,7 +15,9 @@ import subprocess
 import sys
 import tempfile
 import unittest
-import xml.etree.ElementTree as ET
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from junit_result import run_suite  # noqa: E402
 
 BIN_DIR = None
 
@@ -129,24 +131,8 @@ def main():
     p.add_argument("--xml", help="JUnit result file")
     a = p.parse_args()
     BIN_DIR = a.bin_dir
-    suite = unittest.defaultTestLoader.loadTestsFromTestCase(ToolsCli)
-    ids = [t.id() for t in suite]  # the suite forgets its tests once run
-    result = unittest.TextTestRunner(verbosity=2).run(suite)
-    if a.xml:
-        bad = {}  # test id -> messages (a failed subTest counts against its test)
-        for t, msg in result.failures + result.errors:
-            tid = getattr(t, "test_case", t).id()
-            bad[tid] = bad.get(tid, "") + msg
-        root = ET.Element("testsuite", name="tools_cli", tests=str(result.testsRun),
-                          failures=str(len(bad)), errors="0", time="0")
-        for tid in ids:
-            tc = ET.SubElement(root, "testcase", classname="ToolsCli", name=tid.split(".")[-1],
-                               time="0")
-            if tid in bad:
-                ET.SubElement(tc, "failure", message="failed").text = bad[tid]
-        os.makedirs(os.path.dirname(os.path.abspath(a.xml)), exist_ok=True)
-        ET.ElementTree(root).write(a.xml, encoding="utf-8", xml_declaration=True)
-    return 0 if result.wasSuccessful() else 1
+    return run_suite(unittest.defaultTestLoader.loadTestsFromTestCase(ToolsCli), "tools_cli",
+                     a.xml)
 
 
 if __name__ == "__main__":
