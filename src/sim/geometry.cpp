@@ -52,18 +52,8 @@ RevolvedShape::RevolvedShape(const std::vector<ProfilePoint>& profile) : profile
     Edge e;
     e.nz = dr / len;
     e.nr = -dz / len;
-    e.z_lo = std::min(a.z, b.z);
-    e.z_hi = std::max(a.z, b.z);
-    e.r_lo = std::min(a.r, b.r);
-    e.r_hi = std::max(a.r, b.r);
-    e.annulus = std::abs(dz) < 1e-12;
-    if (e.annulus) {
-      e.k = e.c = 0.0;
-      if (e.r_hi < 1e-12) continue;  // degenerate: on the axis
-    } else {
-      e.k = dr / dz;
-      e.c = a.r - e.k * a.z;
-    }
+    e.surface = RevolvedEdge::fromSegment(a.z, a.r, b.z, b.r);
+    if (e.surface.annulus && e.surface.r_hi < 1e-12) continue;  // degenerate: on the axis
     edges_.push_back(e);
   }
 }
@@ -73,45 +63,23 @@ bool RevolvedShape::intersect(const Ray& ray, double t_min, double t_max, LocalH
                                    Eigen::Vector3d(r_max_, r_max_, z_max_));
   double te, tx;
   if (!intersectSlabs(bounds, ray, t_min, t_max, &te, &tx)) return false;
-  const double ox = ray.o.x(), oy = ray.o.y(), oz = ray.o.z();
-  const double dx = ray.d.x(), dy = ray.d.y(), dz = ray.d.z();
   double best = std::min(t_max, tx + 1e-6);
   const Edge* best_edge = nullptr;
+  const RevolvedRay r(ray.o, ray.d);
   for (const Edge& e : edges_) {
-    if (e.annulus) {
-      if (std::abs(dz) < 1e-15) continue;
-      const double t = (e.z_lo - oz) / dz;
-      if (!(t > t_min && t < best)) continue;
-      const double x = ox + t * dx, y = oy + t * dy, rho2 = x * x + y * y;
-      if (rho2 < (e.r_lo - kEps) * (e.r_lo - kEps) && e.r_lo > kEps) continue;
-      if (rho2 > (e.r_hi + kEps) * (e.r_hi + kEps)) continue;
-      best = t;
-      best_edge = &e;
-      continue;
-    }
-    // (x^2 + y^2) - (c + k z)^2 = 0 along the ray, with z in [z_lo, z_hi].
-    const double w = e.c + e.k * oz;
-    const double a = dx * dx + dy * dy - e.k * e.k * dz * dz;
-    const double b = 2.0 * (ox * dx + oy * dy - e.k * dz * w);
-    const double cc = ox * ox + oy * oy - w * w;
-    double roots[2];
-    const int n = solveQuadratic(a, b, cc, roots);
-    for (int i = 0; i < n; ++i) {
-      const double t = roots[i];
-      if (!(t > t_min && t < best)) continue;
-      const double z = oz + t * dz;
-      if (z < e.z_lo - kEps || z > e.z_hi + kEps) continue;
-      if (e.c + e.k * z < -kEps) continue;  // the other nappe of the cone
+    double t;
+    if (e.surface.firstHit(r, t_min, best, kEps, &t)) {
       best = t;
       best_edge = &e;
     }
   }
   if (!best_edge) return false;
   hit->t = best;
-  if (best_edge->annulus) {
+  if (best_edge->surface.annulus) {
     hit->n = Eigen::Vector3d(0, 0, best_edge->nz);
   } else {
-    const double x = ox + best * dx, y = oy + best * dy, rho = std::hypot(x, y);
+    const double x = ray.o.x() + best * ray.d.x(), y = ray.o.y() + best * ray.d.y();
+    const double rho = std::hypot(x, y);
     if (rho < 1e-12)
       hit->n = Eigen::Vector3d(0, 0, best_edge->nz >= 0 ? 1.0 : -1.0);
     else

@@ -12,6 +12,7 @@
 #include <memory>
 #include <vector>
 
+#include "drill_pipe_pose/core/revolved_ray.hpp"
 #include "drill_pipe_pose/core/tool_joint.hpp"
 
 namespace drill_pipe_pose::sim {
@@ -50,11 +51,8 @@ class RevolvedShape {
 
  private:
   struct Edge {
-    double z_lo, z_hi;  ///< axial range [m]
-    double k, c;        ///< r(z) = c + k z (conical / cylindrical edges)
-    double nz, nr;      ///< outward unit normal in (z, r)
-    bool annulus;       ///< edge perpendicular to the axis (dz == 0): a flat ring at z = z_lo
-    double r_lo, r_hi;  ///< radial range of an annulus [m]
+    RevolvedEdge surface;  ///< the revolved edge (core/revolved_ray.hpp)
+    double nz, nr;         ///< outward unit normal in (z, r)
   };
   std::vector<ProfilePoint> profile_;
   std::vector<Edge> edges_;

@@ -37,6 +37,7 @@ ProfileModel::ProfileModel(EndLabel label, const ToolJointDimensions& dims) : la
     }
     edges_.push_back({Eigen::Vector2d(a.z, a.r), Eigen::Vector2d(b.z, b.r)});
     edge_r2_max_.push_back(std::max(a.r, b.r) * std::max(a.r, b.r));
+    surfaces_.push_back(RevolvedEdge::fromSegment(a.z, a.r, b.z, b.r));
   }
   // Distance grid and nearest-edge candidates per cell.
   g_res_ = 0.0025;
@@ -136,35 +137,25 @@ float ProfileModel::coarseDistance(double z, double r) const {
 bool ProfileModel::rayHit(const Eigen::Vector3d& q, const Eigen::Vector3d& d, double s_min,
                           double* s_out, Eigen::Vector2d* zr, Eigen::Vector2d* normal) const {
   // Each edge is a surface of revolution: an annulus (constant z), a cylinder or a cone
-  // r = r_a + k (z - z_a). With x(s) = q + s d: x^2 + y^2 = r(z(s))^2, a quadratic in s.
-  const double qq = q.x() * q.x() + q.y() * q.y(), qd = q.x() * d.x() + q.y() * d.y();
-  const double dd = d.x() * d.x() + d.y() * d.y();
+  // (RevolvedEdge, shared with the simulator's renderer).
+  const RevolvedRay ray(q, d);
+  const double qq = ray.oo, qd = ray.od, dd = ray.dd;
   double best = std::numeric_limits<double>::infinity();
   const Edge* hit = nullptr;
   for (size_t k_e = 0; k_e < edges_.size(); ++k_e) {
     const Edge& e = edges_[k_e];
-    const double za = e.a.x(), ra = e.a.y(), zb = e.b.x(), rb = e.b.y();
-    const double z_lo = std::min(za, zb), z_hi = std::max(za, zb);
-    if (std::abs(zb - za) < 1e-9) {
-      if (std::abs(d.z()) < 1e-12) continue;
-      const double s = (za - q.z()) / d.z();
-      if (!(s > s_min && s < best)) continue;
-      const double r2 = qq + 2 * s * qd + s * s * dd;
-      const double r_lo = std::min(ra, rb), r_hi = std::max(ra, rb);
-      if (r2 >= r_lo * r_lo && r2 <= r_hi * r_hi) best = s, hit = &e;
-      continue;
-    }
-    // Cheap rejection: on the part of the ray inside the edge's z slab (and before the best hit
-    // so far), the ray never comes within the edge's largest radius.
-    {
+    const RevolvedEdge& surface = surfaces_[k_e];
+    if (!surface.annulus) {
+      // Cheap rejection: on the part of the ray inside the edge's z slab (and before the best
+      // hit so far), the ray never comes within the edge's largest radius.
       double s0 = s_min, s1 = best;
       if (std::abs(d.z()) > 1e-12) {
-        double a = (z_lo - q.z()) / d.z(), b = (z_hi - q.z()) / d.z();
+        double a = (surface.z_lo - q.z()) / d.z(), b = (surface.z_hi - q.z()) / d.z();
         if (a > b) std::swap(a, b);
         s0 = std::max(s0, a - 1e-9);
         s1 = std::min(s1, b + 1e-9);
         if (!(s0 <= s1)) continue;
-      } else if (q.z() < z_lo - 1e-9 || q.z() > z_hi + 1e-9) {
+      } else if (q.z() < surface.z_lo - 1e-9 || q.z() > surface.z_hi + 1e-9) {
         continue;
       }
       double sc = dd > 1e-15 ? -qd / dd : s0;
@@ -173,18 +164,8 @@ bool ProfileModel::rayHit(const Eigen::Vector3d& q, const Eigen::Vector3d& d, do
       const double r2_min = qq + 2 * sc * qd + sc * sc * dd;
       if (r2_min > edge_r2_max_[k_e] + 1e-9) continue;
     }
-    const double k = (rb - ra) / (zb - za);
-    const double w0 = ra + k * (q.z() - za), w1 = k * d.z();  // r(s) = w0 + w1 s
-    const double A = dd - w1 * w1, B = 2 * (qd - w0 * w1), C = qq - w0 * w0;
-    double roots[2];
-    const int n = solveQuadratic(A, B, C, roots);
-    for (int i = 0; i < n; ++i) {
-      const double s = roots[i];
-      if (!(s > s_min && s < best)) continue;
-      const double zs = q.z() + s * d.z();
-      if (zs < z_lo || zs > z_hi || w0 + w1 * s < 0) continue;
-      best = s, hit = &e;
-    }
+    double s;
+    if (surface.firstHit(ray, s_min, best, 0.0, &s)) best = s, hit = &e;
   }
   if (!hit) return false;
   *s_out = best;

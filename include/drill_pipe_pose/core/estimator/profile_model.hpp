@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "drill_pipe_pose/core/conventions.hpp"
+#include "drill_pipe_pose/core/revolved_ray.hpp"
 #include "drill_pipe_pose/core/tool_joint.hpp"
 
 namespace drill_pipe_pose {
@@ -43,6 +44,7 @@ class ProfileModel {
   EndLabel label_ = EndLabel::kBoxEnd;
   std::vector<Edge> edges_;
   std::vector<double> edge_r2_max_;  ///< per edge, its largest radius squared
+  std::vector<RevolvedEdge> surfaces_;  ///< per edge, its surface of revolution
   double tong_length_ = 0.0, z_min_ = 0.0, z_max_ = 0.0;
   // Distance grid.
   double g_z0_ = 0, g_r0_ = 0, g_res_ = 0.0025;
