@@ -23,7 +23,7 @@ CycleRunner::CycleRunner(const EstimatorNodeConfig& config, TransformSource* tra
 
 void CycleRunner::reset() {
   sync_.reset();
-  for (auto id : sync_.takeDropped()) store_.erase(id);
+  sync_.takeDropped();  // every pending frame: the store is cleared below
   store_.clear();
   estimator_.reset();
   for (auto& l : last_) l.reset();

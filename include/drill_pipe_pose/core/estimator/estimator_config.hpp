@@ -1,5 +1,5 @@
 #pragma once
-// Configuration of the ROS-free pose estimator (issue 4). Nested structs with defaults; units in
+// Configuration of the ROS-free pose estimator. Nested structs with defaults; units in
 // the comments. These initialisers are the one place the defaults live: they are the
 // pose_estimator node's defaults too. Every field has one row in the parameter table
 // (estimator_params_table.hpp) giving its key, unit, range and doc, from which the node's loader,

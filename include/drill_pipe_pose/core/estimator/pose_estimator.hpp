@@ -1,7 +1,8 @@
 #pragma once
-// The ROS-free pipe-end pose estimator (issue 4): N cameras' SensorFrames -> per-end 6-DoF poses
-// with covariance. The ROS node converts messages and TF into CameraInput and calls process();
-// tests and benchmarks call it directly.
+// The ROS-free pipe-end pose estimator: N cameras' SensorFrames -> per-end 6-DoF poses
+// with covariance. The node and bench_estimator call it through the core CycleRunner
+// (cycle_runner.hpp), which assembles CameraInput from frames and transforms; tests call it
+// directly.
 
 #include <Eigen/Geometry>
 #include <array>
@@ -64,9 +65,9 @@ struct CycleResult {
   const EndEstimate& end(EndLabel l) const { return ends[static_cast<int>(l)]; }
 };
 
-/// The pipeline. Not thread-safe (one instance per thread); keeps state across cycles for the
-/// tracks and temporal filters of the ends and for the thesis_baseline (its concatenated layers
-/// and last model poses); reset() clears it.
+/// The pipeline. Not thread-safe (one instance per thread). Keeps state across cycles in one
+/// place (per label: the track, the instance memory, the label-flip count; per end: the temporal
+/// filter; the thesis_baseline's layers and model poses); reset() clears all of it.
 class PoseEstimator {
  public:
   /// Validates the configuration (throws InputError naming the key) and builds the models.
@@ -79,7 +80,7 @@ class PoseEstimator {
   /// camera_errors; the others go on. Never throws on bad data.
   CycleResult process(const std::vector<CameraInput>& cameras);
 
-  /// Forgets the thesis_baseline's layers and model poses.
+  /// Forgets every state kept across cycles (as a newly built estimator).
   void reset();
 
   const EstimatorConfig& config() const { return config_; }
