@@ -92,27 +92,38 @@ const InstanceMemory* otherSize(const InstanceMemory& entry,
   return nullptr;
 }
 
-// Over 120 lines because the rules of the choice read in the order its doc comment gives them.
-InstanceChoice chooseInstance(std::vector<InstanceMemory>* memory_ptr,
-                              const std::vector<InstanceFit>& fits, int track, int64_t stamp_ns,
-                              const PointsNear& points_near, size_t min_points,
-                              const EstimatorConfig::Instances& ic, const std::string& label) {
+namespace {
+
+/// One candidate of the choice: a fit of this cycle (with its memory entry) or a remembered entry.
+struct Competitor {
+  int fit = -1;    // index into fits; -1: a memory entry with no fit this cycle
+  size_t mem = 0;  // index into memory
+  double mean = 0.0;
+  int decisions = 0;
+};
+
+/// Forgets the entries not decided for instances.memory_s (or stamped after stamp_ns).
+void forgetStale(std::vector<InstanceMemory>* memory, int64_t stamp_ns,
+                 const EstimatorConfig::Instances& ic) {
+  memory->erase(std::remove_if(memory->begin(), memory->end(),
+                               [&](const InstanceMemory& m) {
+                                 const double age =
+                                     static_cast<double>(stamp_ns - m.stamp_ns) * 1e-9;
+                                 return !(age >= 0 && age <= ic.memory_s);
+                               }),
+                memory->end());
+}
+
+/// Each competing fit joins its memory entry (the nearest within instances.track_gate, or a new
+/// one): its running means of cost and radius, origin and stamp. Returns the fits as
+/// competitors; `updated` marks the entries they joined.
+std::vector<Competitor> joinFits(std::vector<InstanceMemory>* memory_ptr,
+                                 const std::vector<InstanceFit>& fits, int64_t stamp_ns,
+                                 const EstimatorConfig::Instances& ic,
+                                 std::vector<bool>* updated) {
   std::vector<InstanceMemory>& memory = *memory_ptr;
-  memory.erase(std::remove_if(memory.begin(), memory.end(),
-                              [&](const InstanceMemory& m) {
-                                const double age =
-                                    static_cast<double>(stamp_ns - m.stamp_ns) * 1e-9;
-                                return !(age >= 0 && age <= ic.memory_s);
-                              }),
-               memory.end());
-  struct Competitor {
-    int fit = -1;    // index into fits; -1: a memory entry with no fit this cycle
-    size_t mem = 0;  // index into memory
-    double mean = 0.0;
-    int decisions = 0;
-  };
   std::vector<Competitor> comp;
-  std::vector<bool> updated(memory.size(), false);
+  updated->assign(memory.size(), false);
   for (size_t k = 0; k < fits.size(); ++k) {
     if (!fits[k].competes) continue;
     int m = -1;
@@ -123,7 +134,7 @@ InstanceChoice chooseInstance(std::vector<InstanceMemory>* memory_ptr,
     }
     if (m < 0) {
       memory.emplace_back();
-      updated.push_back(false);
+      updated->push_back(false);
       m = static_cast<int>(memory.size()) - 1;
     }
     InstanceMemory& e = memory[m];
@@ -135,9 +146,38 @@ InstanceChoice chooseInstance(std::vector<InstanceMemory>* memory_ptr,
     }
     e.origin = fits[k].origin;
     e.stamp_ns = stamp_ns;
-    updated[m] = true;
+    (*updated)[m] = true;
     comp.push_back({static_cast<int>(k), static_cast<size_t>(m), e.mean_cost, e.decisions});
   }
+  return comp;
+}
+
+/// Removes the competitors that another entry shows to be another pipe size (otherSize);
+/// `excluded` and `nearer` receive the last one removed and the entry that ruled it out.
+void excludeOtherSizes(std::vector<Competitor>* comp, const std::vector<InstanceMemory>& memory,
+                       const EstimatorConfig::Instances& ic, int* excluded,
+                       const InstanceMemory** nearer) {
+  for (size_t c = 0; c < comp->size();) {
+    if (const InstanceMemory* o = otherSize(memory[(*comp)[c].mem], memory, ic)) {
+      *excluded = static_cast<int>((*comp)[c].mem);
+      *nearer = o;
+      comp->erase(comp->begin() + static_cast<std::ptrdiff_t>(c));
+    } else {
+      ++c;
+    }
+  }
+}
+
+}  // namespace
+
+InstanceChoice chooseInstance(std::vector<InstanceMemory>* memory_ptr,
+                              const std::vector<InstanceFit>& fits, int track, int64_t stamp_ns,
+                              const PointsNear& points_near, size_t min_points,
+                              const EstimatorConfig::Instances& ic, const std::string& label) {
+  std::vector<InstanceMemory>& memory = *memory_ptr;
+  forgetStale(&memory, stamp_ns, ic);
+  std::vector<bool> updated;
+  std::vector<Competitor> comp = joinFits(&memory, fits, stamp_ns, ic, &updated);
   InstanceChoice choice;
   if (comp.empty()) return choice;
   // An entry with no fit this cycle whose place still holds the label's points: with enough
@@ -156,15 +196,7 @@ InstanceChoice chooseInstance(std::vector<InstanceMemory>* memory_ptr,
   // Another pipe size does not compete.
   int excluded = -1;
   const InstanceMemory* nearer = nullptr;
-  for (size_t c = 0; c < comp.size();) {
-    if (const InstanceMemory* o = otherSize(memory[comp[c].mem], memory, ic)) {
-      excluded = static_cast<int>(comp[c].mem);
-      nearer = o;
-      comp.erase(comp.begin() + static_cast<std::ptrdiff_t>(c));
-    } else {
-      ++c;
-    }
-  }
+  excludeOtherSizes(&comp, memory, ic, &excluded, &nearer);
   if (comp.empty()) {
     const InstanceMemory& e = memory[static_cast<size_t>(excluded)];
     std::ostringstream s;
