@@ -11,7 +11,6 @@
 
 #include <sensor_msgs/PointCloud2.h>
 #include <sensor_msgs/point_cloud2_iterator.h>
-#include <tf2/buffer_core.h>
 #include <tf2_eigen/tf2_eigen.h>
 #include <tf2_msgs/TFMessage.h>
 #include <tf2_ros/buffer.h>
@@ -21,15 +20,10 @@
 #include <cstdio>
 
 #include <map>
-#include <memory>
-#include <optional>
 
 #include "drill_pipe_pose/core/cycle_runner.hpp"
-#include "drill_pipe_pose/core/errors.hpp"
-#include "drill_pipe_pose/core/pipe_end_frame.hpp"
 #include "drill_pipe_pose/ros/conversions.hpp"
 #include "drill_pipe_pose/ros/estimator_params.hpp"
-#include "drill_pipe_pose/ros/params.hpp"
 #include "drill_pipe_pose/ros/tf_source.hpp"
 
 namespace drill_pipe_pose {
