@@ -321,7 +321,7 @@ def measure_frame(depth_mm, K, dist, corners, board=None, dark_parity=0):
     normal = R[:, 2]
     incidence = math.degrees(math.acos(min(1.0, abs(normal @ centre) / np.linalg.norm(centre))))
     out = dict(dist_m=float(centre[2]), incidence_deg=incidence, reproj_px=reproj,
-               hull_pixels=int(mask.sum()))
+               hull_pixels=int(mask.sum()), R=R, t=t)
 
     # Invalid fractions (all window pixels, before any fit).
     wmask = mask & win

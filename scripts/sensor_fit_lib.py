@@ -1,0 +1,280 @@
+"""The simulator's sensor model held against real chessboard frames: the fit and the comparison.
+
+Two halves, both driven by scripts/sensor_check:
+  fit_sensor_model()  fits the amplitude-dependent effects of the simulator's Kinect v2 model
+                      (sim::SensorEffects) to a real recording and prints the values;
+  simulate_frames()   renders the same board at every measured real pose with the project's own
+                      renderer (the render_board tool, the simulator's depth-effects code) and
+                      measures the simulated frames with the same code as the real ones;
+  compare_table()     the sim/real table by distance bin, with the targets.
+
+The amplitude scale. The simulator knows a surface's reflectivity r and computes the returned
+amplitude as a = r cos(theta) / z^2 [1/m^2]. The real IR image gives amplitude in digital
+numbers (DN). The two are tied by one figure, KAPPA: A_DN = KAPPA * a, fixed by giving the
+board's white paper the simulator reflectivity WHITE_PAPER_REFLECTIVITY (white office paper
+reflects about 80 % in the near infrared). Every amplitude threshold of the model is fitted in
+DN and divided by KAPPA.
+"""
+import csv
+import math
+import os
+import subprocess
+
+import numpy as np
+
+import sensor_check_lib as lib
+
+WHITE_PAPER_REFLECTIVITY = 0.8   # simulator reflectivity of the board's white paper (NIR, ~80 %)
+IR_SATURATION_DN = 60000         # bright-square amplitudes above this are treated as clipped
+SIM_CAMERA = dict(width=512, height=424, fx=365.4, fy=365.4, cx=260.9, cy=205.6)  # nominal Kinect v2
+MIN_BIN_FRAMES = 10              # a bin counts toward the targets with at least this many frames
+
+# Targets of the comparison (the sensor-realism issue): ratio band, absolute differences.
+RATIO_BAND = (0.8, 1.25)
+CORR_TOL = 0.1
+BIAS_TOL_MM = 2.0
+INVALID_TOL = 0.10
+
+
+def _lstsq(A, y):
+    sol, *_ = np.linalg.lstsq(A, y, rcond=None)
+    return sol
+
+
+def ir_amplitudes(folder, res, board=None):
+    """Per frame with an IR image: (result dict, bright DN, dark DN), square windows' medians."""
+    board = board or lib.Board()
+    by_name = {r["frame"]: r for r in res["results"]}
+    out = []
+    for name in res["names"]:
+        path = os.path.join(folder, name + "_ir.png")
+        if name not in by_name or not os.path.exists(path):
+            continue
+        _, corners, ir = lib.load_frame(folder, name)
+        a0, a1 = lib.ir_square_amplitudes(ir, res["K"], res["dist"], corners, board)
+        bright, dark = (a0, a1) if res["dark_parity"] == 1 else (a1, a0)
+        out.append((by_name[name], bright, dark))
+    return out
+
+
+def amplitude_law(rows, which):
+    """Least squares log A = log k + m log cos(theta) + p log z over unclipped frames:
+    (k [DN m^-p], m, p, rms of log A)."""
+    A = np.array([b if which == "bright" else d for _, b, d in rows])
+    z = np.array([r["dist_m"] for r, _, _ in rows])
+    c = np.cos(np.radians([r["incidence_deg"] for r, _, _ in rows]))
+    ok = A < IR_SATURATION_DN
+    M = np.stack([np.ones(ok.sum()), np.log(c[ok]), np.log(z[ok])], axis=1)
+    sol = _lstsq(M, np.log(A[ok]))
+    rms = float(np.sqrt(np.mean((M @ sol - np.log(A[ok])) ** 2)))
+    return float(math.exp(sol[0])), float(sol[1]), float(sol[2]), rms
+
+
+def amplitude_at(law, z, incidence_deg):
+    k, m, p, _ = law
+    return k * math.cos(math.radians(incidence_deg)) ** m * z ** p
+
+
+def fit_sensor_model(folder, res, board=None):
+    """Fits the amplitude-dependent effects on a recording. Returns a dict of figures (DN and
+    simulator units) and the lines that describe them."""
+    rows = ir_amplitudes(folder, res, board)
+    if len(rows) < 5:
+        raise ValueError(f"{folder}: {len(rows)} frames with an IR image; the fit needs at least 5")
+    bright_law, dark_law = amplitude_law(rows, "bright"), amplitude_law(rows, "dark")
+    kappa = bright_law[0] / WHITE_PAPER_REFLECTIVITY
+    f = {"kappa": kappa, "bright_law": bright_law, "dark_law": dark_law, "ir_frames": len(rows)}
+
+    # Noise: sigma^2 = floor^2 + (C / A)^2, floor = the bright squares' spread.
+    bsd = np.array([r["bright_sd"] for r, _, _ in rows])
+    f["noise_floor_mm"] = float(np.nanmedian([r["bright_sd"] for r in res["results"]]))
+    dsd = np.array([r["dark_sd"] for r, _, _ in rows])
+    Ad = np.array([d for _, _, d in rows])
+    Ab = np.array([b for _, b, _ in rows])
+    excess = np.sqrt(np.maximum(dsd ** 2 - f["noise_floor_mm"] ** 2, 1e-6))
+    f["noise_c_dn"] = float(np.median(excess * Ad))
+    f["noise_c_spread"] = tuple(float(x) for x in np.percentile(excess * Ad, [10, 90]))
+    f["noise_power"] = float(np.polyfit(np.log(Ad), np.log(excess), 1)[0])
+    f["noise_c_sim"] = f["noise_c_dn"] / kappa
+    del bsd
+
+    # Brightness bias: dark - bright = B (1/A_dark - 1/A_bright), no intercept.
+    dmb = np.array([r["dark_minus_bright"] for r, _, _ in rows])
+    ok = np.isfinite(dmb)
+    x = 1.0 / Ad[ok] - 1.0 / Ab[ok]
+    f["bias_b_dn"] = float(x @ dmb[ok] / (x @ x))
+    f["bias_rms_mm"] = float(np.sqrt(np.mean((f["bias_b_dn"] * x - dmb[ok]) ** 2)))
+    f["bias_frames"] = int(ok.sum())
+    f["bias_min_dn"] = float(Ad.min())
+    f["bias_b_sim"] = f["bias_b_dn"] / kappa
+    f["bias_min_sim"] = f["bias_min_dn"] / kappa
+    f["bias_max_mm"] = f["bias_b_dn"] / f["bias_min_dn"]
+
+    # Saturation: invalid fraction of bright windows against the bright amplitude the law
+    # predicts (every measured frame, not only those with an IR image); linear ramp lo -> hi.
+    pred = np.array([amplitude_at(bright_law, r["dist_m"], r["incidence_deg"]) for r in res["results"]])
+    inv = np.array([r["inv_bright"] for r in res["results"]])
+    best = None
+    for lo in np.arange(30000, 90000, 1000.0):
+        for hi in np.arange(lo + 2000, 130000, 2000.0):
+            model = np.clip((pred - lo) / (hi - lo), 0, 1)
+            err = float(np.mean((model - inv) ** 2))
+            if best is None or err < best[0]:
+                best = (err, lo, hi)
+    f["sat_lo_dn"], f["sat_hi_dn"], f["sat_rms"] = best[1], best[2], math.sqrt(best[0])
+    f["sat_lo_sim"], f["sat_hi_sim"] = best[1] / kappa, best[2] / kappa
+    return f
+
+
+def fit_lines(f):
+    kb, mb, pb, rb = f["bright_law"]
+    kd, md, pd, rd = f["dark_law"]
+    return [
+        f"Sensor model fitted on {f['ir_frames']} frames with an IR image (amplitude = median IR DN of the",
+        "square windows; the noise floor and the saturation ramp use every measured frame):",
+        f"  bright amplitude  A = {kb:.0f} DN x cos^{mb:.2f} x z^{pb:.2f}  (rms {rb:.2f} in log A)",
+        f"  dark amplitude    A = {kd:.0f} DN x cos^{md:.2f} x z^{pd:.2f}  (rms {rd:.2f} in log A)",
+        f"  scale: white paper = simulator reflectivity {WHITE_PAPER_REFLECTIVITY:g}, so A_DN = {f['kappa']:.0f} x a,"
+        "  a = r cos(theta) / z^2 [1/m^2]",
+        f"  noise: sigma^2 = floor^2 + (C / A)^2; floor {f['noise_floor_mm']:.2f} mm (bright-square spread);"
+        f" C = {f['noise_c_dn']:.0f} DN mm",
+        f"         (10-90 % of frames {f['noise_c_spread'][0]:.0f}-{f['noise_c_spread'][1]:.0f};"
+        f" free power law: excess ~ A^{f['noise_power']:.2f}); simulator C = {f['noise_c_sim']:.4f} mm/m^2",
+        f"  bias:  dark - bright = B (1/A_dark - 1/A_bright), B = {f['bias_b_dn']:.0f} DN mm"
+        f" (rms {f['bias_rms_mm']:.1f} mm over {f['bias_frames']} frames);",
+        f"         simulator B = {f['bias_b_sim']:.4f} mm/m^2; lowest fitted amplitude {f['bias_min_dn']:.0f} DN"
+        f" = a {f['bias_min_sim']:.4f} (bias there {f['bias_max_mm']:.1f} mm)",
+        f"  saturation: bright windows invalid on a ramp from {f['sat_lo_dn']:.0f} to {f['sat_hi_dn']:.0f} DN"
+        f" (rms {f['sat_rms']:.2f}); simulator a {f['sat_lo_sim']:.2f}-{f['sat_hi_sim']:.2f} 1/m^2",
+    ]
+
+
+def frame_reflectivities(f, r):
+    """Simulator reflectivities of the bright and dark squares that give a real frame's fitted
+    amplitudes at its distance and incidence (the target's own angular reflectance is taken
+    from the IR images, so that the comparison tests the sensor model, not the paper)."""
+    c = math.cos(math.radians(r["incidence_deg"]))
+    z = r["dist_m"]
+    conv = z * z / (f["kappa"] * c)
+    bright = amplitude_at(f["bright_law"], z, r["incidence_deg"]) * conv
+    dark = amplitude_at(f["dark_law"], z, r["incidence_deg"]) * conv
+    return min(bright, 1.0), min(dark, 1.0)
+
+
+def simulate_frames(tool, res, f, out_dir, profile="kinect_v2_calibrated", seed=1, off=(), board=None):
+    """Renders every measured real pose twice (two noise draws) with `tool` (render_board) and
+    measures the simulated frames like the real ones. Returns (results, temporal)."""
+    board = board or lib.Board()
+    os.makedirs(out_dir, exist_ok=True)
+    poses = os.path.join(out_dir, "poses.csv")
+    import cv2
+    with open(poses, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["frame", "rx", "ry", "rz", "tx", "ty", "tz", "bright_reflectivity", "dark_reflectivity"])
+        for r in res["results"]:
+            rvec, _ = cv2.Rodrigues(r["R"])
+            rb, rd = frame_reflectivities(f, r)
+            w.writerow([r["frame"]] + [f"{v:.9g}" for v in rvec.ravel()] + [f"{v:.9g}" for v in r["t"]]
+                       + [f"{rb:.6g}", f"{rd:.6g}"])
+    cmd = [tool, "--poses", poses, "--out", out_dir, "--profile", profile, "--seed", str(seed),
+           "--repeat", "2", "--dark-parity", str(res["dark_parity"]),
+           "--cols", str(board.cols), "--rows", str(board.rows), "--square", str(board.square)]
+    for k, v in SIM_CAMERA.items():
+        cmd += [f"--{k}", str(v)]
+    for e in off:
+        cmd += ["--off", e]
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+    K = np.array([[SIM_CAMERA["fx"], 0, SIM_CAMERA["cx"]], [0, SIM_CAMERA["fy"], SIM_CAMERA["cy"]], [0, 0, 1]])
+    dist = np.zeros(5)
+    corners = {}
+    with open(os.path.join(out_dir, "corners.csv")) as fh:
+        for row in csv.DictReader(fh):
+            corners.setdefault(row["frame"], []).append((int(row["i"]), float(row["u"]), float(row["v"])))
+    results, temporal = [], []
+    real_groups = {t["frames_names"][0]: t for _, t in res["temporal"]}
+    for r in res["results"]:
+        name = r["frame"]
+        c = np.array([uv for _, *uv in sorted(corners[name])])
+        d0 = cv2.imread(os.path.join(out_dir, f"{name}_0.pgm"), cv2.IMREAD_ANYDEPTH)
+        d1 = cv2.imread(os.path.join(out_dir, f"{name}_1.pgm"), cv2.IMREAD_ANYDEPTH)
+        if d0 is None or d1 is None:
+            raise ValueError(f"{out_dir}: the simulated frame {name} was not written")
+        m = lib.measure_frame(d0, K, dist, c, board, res["dark_parity"])
+        m["frame"] = name
+        results.append(m)
+        if name in real_groups:
+            t = lib.temporal_measures([d0, d1], K, dist, c, board, res["dark_parity"])
+            t["frames_names"] = [name + "_0", name + "_1"]
+            temporal.append((m["dist_m"], t))
+    return results, temporal
+
+
+COMPARE = [
+    # key, label, kind (ratio | diff), scale, tolerance
+    ("resid_std", "plane sd", "ratio", 1, RATIO_BAND),
+    ("bright_sd", "bright sd", "ratio", 1, RATIO_BAND),
+    ("dark_sd", "dark sd", "ratio", 1, RATIO_BAND),
+    ("temporal_sd", "temporal sd", "ratio", 1, RATIO_BAND),
+    ("corr_sq", "corr sq", "diff", 1, CORR_TOL),
+    ("dark_minus_bright", "dark-bri mm", "diff", 1, BIAS_TOL_MM),
+    ("inv_bright", "inv bri %", "diff", 100, INVALID_TOL * 100),
+    ("inv_dark", "inv dark %", "diff", 100, INVALID_TOL * 100),
+]
+
+
+def compare_rows(real_rows, sim_rows):
+    """Per bin and measure: (bin, n, key, real, sim, value, ok) where value is sim/real or
+    sim - real; ok is None where the bin has fewer than MIN_BIN_FRAMES frames or a side has no
+    value (the target does not apply)."""
+    sim = {b: agg for b, _, agg in sim_rows}
+    out = []
+    for b, n, agg in real_rows:
+        s = sim.get(b)
+        for key, label, kind, scale, tol in COMPARE:
+            rv = agg.get(key, float("nan"))
+            sv = s.get(key, float("nan")) if s else float("nan")
+            if not (np.isfinite(rv) and np.isfinite(sv)):
+                out.append((b, n, key, rv, sv, float("nan"), None))
+                continue
+            if kind == "ratio":
+                val = sv / rv
+                ok = tol[0] <= val <= tol[1]
+            else:
+                val = (sv - rv) * scale
+                ok = abs(val) <= tol
+            out.append((b, n, key, rv * scale, sv * scale, val, ok if n >= MIN_BIN_FRAMES else None))
+    return out
+
+
+def format_compare(rows, markdown=False):
+    labels = {k: (lbl, kind) for k, lbl, kind, _, _ in COMPARE}
+    head = ["distance m", "n", "measure", "real", "sim", "sim/real or sim-real", "target"]
+    body = []
+    for b, n, key, rv, sv, val, ok in rows:
+        lbl, kind = labels[key]
+        fmt = "{:.2f}"
+        cells = [f"{b[0]:.2f}-{b[1]:.2f}", str(n), lbl,
+                 fmt.format(rv) if np.isfinite(rv) else "-", fmt.format(sv) if np.isfinite(sv) else "-",
+                 (f"{val:.2f}" if kind == "ratio" else f"{val:+.2f}") if np.isfinite(val) else "-",
+                 "-" if ok is None else ("ok" if ok else "MISS")]
+        body.append(cells)
+    if markdown:
+        lines = ["| " + " | ".join(head) + " |", "|" + "|".join("---" for _ in head) + "|"]
+        lines += ["| " + " | ".join(c) + " |" for c in body]
+        return "\n".join(lines)
+    widths = [max(len(h), *(len(c[i]) for c in body)) for i, h in enumerate(head)]
+    lines = ["  ".join(h.rjust(w) for h, w in zip(head, widths))]
+    lines += ["  ".join(x.rjust(w) for x, w in zip(c, widths)) for c in body]
+    return "\n".join(lines)
+
+
+def compare_text():
+    lo, hi = RATIO_BAND
+    return (f"Targets, in every 0.25 m bin with at least {MIN_BIN_FRAMES} frames: sim/real within {lo}-{hi} for the\n"
+            f"spreads (plane sd, bright sd, dark sd, temporal sd), sim - real within {CORR_TOL} for corr sq,\n"
+            f"{BIAS_TOL_MM:g} mm for dark-bri, {INVALID_TOL * 100:g} points for the invalid fractions. The simulated board\n"
+            "is the real one (5 x 7 inner corners, 30 mm squares, dark parity as found) at each real frame's\n"
+            "PnP pose, rendered by render_board through the simulator's depth effects with the nominal\n"
+            "Kinect v2 intrinsics and no distortion, each square with the reflectivity that gives the fitted\n"
+            "amplitude of that frame; two noise draws per pose (the second only for the temporal spread,\n"
+            "at the real repeated poses).")
