@@ -7,7 +7,8 @@
 - a bad value exits 2 with a message naming the option.
 
 Run by ctest (CMakeLists.txt): test_tools_cli.py --bin-dir DEVEL/lib/drill_pipe_pose --xml OUT.xml
-The programs are only asked to parse their command line: nothing is rendered or read.
+The programs are only asked to parse their command line, except render_board, which renders two
+small frames (test_render_board_writes_frames).
 """
 import argparse
 import os
@@ -33,6 +34,10 @@ OPTIONS = {
     "evaluate": ["--ns", "--csv", "--rate", "--expected"],
     "make_models": ["--spacing", "--threads"],
     "mesh_to_cloud": ["--spacing", "--scale", "--seed"],
+    "render_board": ["--poses", "--out", "--profile", "--off", "--seed", "--repeat", "--fx", "--fy",
+                     "--cx", "--cy", "--width", "--height", "--cols", "--rows", "--square",
+                     "--margin", "--dark-parity", "--bright-reflectivity", "--dark-reflectivity",
+                     "--background-distance", "--depth-offset"],
     "render_dataset": ["--out", "--rig", "--sensors", "--scene", "--cameras", "--random",
                        "--frames", "--augment", "--jpeg-quality", "--seed", "--profile", "--split",
                        "--format", "--negatives", "--print-roi", "--quiet"],
@@ -93,6 +98,7 @@ class ToolsCli(unittest.TestCase):
             "evaluate": ("--rate", [f, "--rate", "abc"]),
             "make_models": ("--spacing", [d, "--spacing", "-1"]),
             "mesh_to_cloud": ("--scale", [f, os.path.join(d, "o.pcd"), "--scale", "0"]),
+            "render_board": ("--square", ["--poses", f, "--out", d, "--square", "0"]),
             "render_dataset": ("--frames", ["--out", d, "--frames", "0"]),
             "rig_info": ("--zone", [f, "--zone", "1", "1", "1", "0", "0", "0"]),
             "simulate_bag": ("--duration", ["--scene", f, "--out", os.path.join(d, "o.bag"),
@@ -117,11 +123,49 @@ class ToolsCli(unittest.TestCase):
             ("detector_eval", "--roi", ["--model", f, "--timing", "320x320", "--roi", "1,2,3"]),
             ("mesh_to_cloud", "--seed", [f, "o.pcd", "--seed", "-3"]),
             ("rig_info", "--target", [f, "--target", "1", "2"]),
+            ("render_board", "--off", ["--poses", f, "--out", self.tmp, "--off", "nope"]),
+            ("render_board", "--dark-parity", ["--poses", f, "--out", self.tmp, "--dark-parity",
+                                               "2"]),
         ]:
             with self.subTest(tool=tool, opt=opt):
                 r = run(tool, *args)
                 self.assertEqual(r.returncode, 2, r.stdout + r.stderr)
                 self.assertIn(opt, r.stderr)
+
+    def test_render_board_writes_frames(self):
+        """The one tool run for real: 2 board poses, ideal sensor, read back without OpenCV."""
+        poses = os.path.join(self.tmp, "poses.csv")
+        with open(poses, "w") as f:
+            f.write("frame,rx,ry,rz,tx,ty,tz\n0001,0,0,0,-0.06,-0.09,1.0\n"
+                    "0002,0.3,0,0,-0.06,-0.09,1.5\n")
+        out = os.path.join(self.tmp, "board")
+        r = run("render_board", "--poses", poses, "--out", out, "--profile", "ideal")
+        self.assertEqual(r.returncode, 0, r.stdout + r.stderr)
+        self.assertIn("2 frames", r.stdout)
+        for frame in ("0001", "0002"):
+            with open(os.path.join(out, frame + ".pgm"), "rb") as f:
+                data = f.read()
+            header = b"P5\n512 424\n65535\n"
+            self.assertTrue(data.startswith(header), data[:20])
+            self.assertEqual(len(data), len(header) + 512 * 424 * 2)
+            if frame == "0001":  # board facing the camera at 1 m: its centre pixel reads 1000 mm
+                k = len(header) + 2 * (206 * 512 + 261)
+                self.assertEqual(int.from_bytes(data[k:k + 2], "big"), 1000)
+                self.assertEqual(int.from_bytes(data[len(header):len(header) + 2], "big"), 0)
+        with open(os.path.join(out, "corners.csv")) as f:
+            lines = f.read().splitlines()
+        self.assertEqual(lines[0], "frame,i,u,v")
+        self.assertEqual(len(lines), 1 + 2 * 35)
+        frame, i, u, v = lines[1].split(",")
+        self.assertEqual((frame, i), ("0001", "0"))
+        self.assertAlmostEqual(float(u), 260.9 - 365.4 * 0.06, places=4)
+        self.assertAlmostEqual(float(v), 205.6 - 365.4 * 0.09, places=4)
+        # A bad poses file: exit 1, naming the file and the line.
+        with open(poses, "w") as f:
+            f.write("frame,rx,ry,rz,tx,ty,tz\n0001,0,0,0,0,0\n")
+        r = run("render_board", "--poses", poses, "--out", out)
+        self.assertEqual(r.returncode, 1, r.stdout + r.stderr)
+        self.assertIn("poses.csv:2", r.stderr)
 
 
 def main():

@@ -1,0 +1,43 @@
+#pragma once
+// The depth sensor effects as one per-pixel pass over what a ray caster found: the renderer
+// (RigSimulator) and the board renderer (src/tools/render_board.cpp) share it, so that frames
+// rendered for comparison with a real Kinect v2 go through exactly the simulator's model.
+
+#include <cstdint>
+#include <vector>
+
+#include "drill_pipe_pose/core/depth_image.hpp"
+#include "drill_pipe_pose/sim/sensor_model.hpp"
+
+namespace drill_pipe_pose::sim {
+
+/// Per-pixel inputs of the depth sensor effects: what the ray caster found for each pixel of a
+/// width x height depth image (row-major arrays of width * height values; z <= 0: no return).
+struct DepthSceneView {
+  int width = 0, height = 0;             ///< [px]
+  const float* z = nullptr;              ///< [m] along the optical axis
+  const float* cos_incidence = nullptr;  ///< cos(angle between the ray and the surface normal)
+  const float* reflectivity = nullptr;   ///< of the surface hit, for the dropout model
+  const float* g2 = nullptr;             ///< incidence term of the noise model (incidenceTerm)
+};
+
+/// Applies every enabled depth effect of `fx` (lateral noise, flying pixels, range limits,
+/// dropout, axial noise, interference bursts, the depth offset, quantisation) and writes the
+/// depth image: 16UC1 millimetres with quantisation, else 32FC1 metres. `depth_offset` [m] is
+/// added to every valid return. noise_seed and interference_seed seed the two random streams (the
+/// renderer derives them from (seed, camera, frame): streamSeed with kStreamDepthNoise and
+/// kStreamInterference). The random numbers are drawn in a fixed order: a seed's frames never
+/// change.
+void applyDepthEffects(const SensorEffects& fx, const DepthSceneView& in, double depth_offset,
+                       uint64_t noise_seed, uint64_t interference_seed, DepthImage* out);
+
+/// The incidence term g^2 = (theta / (pi/2 - theta))^2 of Fankhauser's model from cos(theta),
+/// theta clamped to max_incidence_rad (kinect_v2::incidenceFactor, as a float).
+float incidenceTerm(float cos_theta, double max_incidence_rad);
+
+/// Standard normal by table lookup of 16 random bits: the inverse CDF at the 65536 bin centres
+/// (exact mean 0, variance within 0.1 % of 1, tails to +-4.3 sigma). Fast enough to draw one
+/// per pixel (depth and colour noise).
+const std::vector<float>& normalTable();
+
+}  // namespace drill_pipe_pose::sim
