@@ -299,6 +299,48 @@ def _pair_corr(img, label=None):
     return sab / math.sqrt(sa * sb), n
 
 
+PATTERN_CELL_PX = 16     # pixel-fixed pattern: cells of this many pixels square
+PATTERN_MIN_PIXELS = 5   # a cell counts in a frame with at least this many inlier pixels
+PATTERN_MIN_FRAMES = 5   # and in the pattern with at least this many frames
+
+
+def pixel_cell_means(e, ys, xs, dark, shape, cell=PATTERN_CELL_PX):
+    """Mean residual per image cell of cell x cell pixels, each colour's median removed first
+    (so that the dark/bright bias is not a pattern): {(row, col): mean [mm]} for cells with at
+    least PATTERN_MIN_PIXELS pixels."""
+    e = np.asarray(e, float).copy()
+    for c in (True, False):
+        m = dark == c
+        if m.any():
+            e[m] -= np.median(e[m])
+    ncol = shape[1] // cell + 1
+    key = (ys // cell) * ncol + xs // cell
+    cnt = np.bincount(key)
+    sm = np.bincount(key, weights=e)
+    return {(int(k) // ncol, int(k) % ncol): float(sm[k] / cnt[k])
+            for k in np.nonzero(cnt >= PATTERN_MIN_PIXELS)[0]}
+
+
+def pixel_pattern(results):
+    """The part of the plane residual fixed to the pixel grid: per cell, the mean over frames of
+    (cell mean - that frame's mean over its cells), for cells seen in PATTERN_MIN_FRAMES frames.
+    Returns (std over cells of that pattern [mm], std of all frame cell values [mm], cells)."""
+    per = {}
+    allv = []
+    for r in results:
+        cells = r.get("pixel_cells") or {}
+        if not cells:
+            continue
+        mu = np.mean(list(cells.values()))
+        for k, v in cells.items():
+            per.setdefault(k, []).append(v - mu)
+            allv.append(v - mu)
+    means = [np.mean(v) for v in per.values() if len(v) >= PATTERN_MIN_FRAMES]
+    if len(means) < 2:
+        return float("nan"), float("nan"), 0
+    return float(np.std(means)), float(np.std(allv)), len(means)
+
+
 def measure_frame(depth_mm, K, dist, corners, board=None, dark_parity=0):
     """Every per-frame measure of the table for one depth image (uint16 mm, 0 = invalid).
 
@@ -347,6 +389,7 @@ def measure_frame(depth_mm, K, dist, corners, board=None, dark_parity=0):
 
     E = np.full(shape, np.nan)
     E[ys[inl], xs[inl]] = e[inl]
+    out["pixel_cells"] = pixel_cell_means(e[inl], ys[inl], xs[inl], dark[ys[inl], xs[inl]], shape)
     out["corr_plane"], _ = _pair_corr(E)
 
     # Per-square windows.

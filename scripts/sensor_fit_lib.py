@@ -25,8 +25,10 @@ import numpy as np
 import sensor_check_lib as lib
 
 WHITE_PAPER_REFLECTIVITY = 0.8   # simulator reflectivity of the board's white paper (NIR, ~80 %)
+DARK_LAW_MIN_DIST = 0.75        # [m] where no bright square saturates (sensor_check table)
 IR_SATURATION_DN = 60000         # bright-square amplitudes above this are treated as clipped
 SIM_CAMERA = dict(width=512, height=424, fx=365.4, fy=365.4, cx=260.9, cy=205.6)  # nominal Kinect v2
+BIAS_POWERS = (0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0)  # candidate powers of the bias law
 MIN_BIN_FRAMES = 10              # a bin counts toward the targets with at least this many frames
 
 # Targets of the comparison (the sensor-realism issue): ratio band, absolute differences.
@@ -57,17 +59,20 @@ def ir_amplitudes(folder, res, board=None):
     return out
 
 
-def amplitude_law(rows, which):
-    """Least squares log A = log k + m log cos(theta) + p log z over unclipped frames:
-    (k [DN m^-p], m, p, rms of log A)."""
+def amplitude_law(rows, which, min_dist=0.0):
+    """Least squares log(A z^2) = log k + m log cos(theta) over the unclipped frames at least
+    min_dist [m] away: A = k cos^m / z^2, the returned power falling with the square of the
+    range (the bright squares alone, fitted freely, give z^-2.03). Returns (k [DN m^2], m, -2,
+    rms of log A)."""
     A = np.array([b if which == "bright" else d for _, b, d in rows])
     z = np.array([r["dist_m"] for r, _, _ in rows])
     c = np.cos(np.radians([r["incidence_deg"] for r, _, _ in rows]))
-    ok = A < IR_SATURATION_DN
-    M = np.stack([np.ones(ok.sum()), np.log(c[ok]), np.log(z[ok])], axis=1)
-    sol = _lstsq(M, np.log(A[ok]))
-    rms = float(np.sqrt(np.mean((M @ sol - np.log(A[ok])) ** 2)))
-    return float(math.exp(sol[0])), float(sol[1]), float(sol[2]), rms
+    ok = (A < IR_SATURATION_DN) & (z >= min_dist)
+    M = np.stack([np.ones(ok.sum()), np.log(c[ok])], axis=1)
+    y = np.log(A[ok] * z[ok] ** 2)
+    sol = _lstsq(M, y)
+    rms = float(np.sqrt(np.mean((M @ sol - y) ** 2)))
+    return float(math.exp(sol[0])), float(sol[1]), -2.0, rms
 
 
 def amplitude_at(law, z, incidence_deg):
@@ -81,7 +86,10 @@ def fit_sensor_model(folder, res, board=None):
     rows = ir_amplitudes(folder, res, board)
     if len(rows) < 5:
         raise ValueError(f"{folder}: {len(rows)} frames with an IR image; the fit needs at least 5")
-    bright_law, dark_law = amplitude_law(rows, "bright"), amplitude_law(rows, "dark")
+    # The dark squares' law only from frames beyond DARK_LAW_MIN_DIST: nearer, the bright squares
+    # saturate and the light they scatter inside the camera raises the dark windows' IR (their
+    # free fit there gives z^-1.1, not z^-2).
+    bright_law, dark_law = amplitude_law(rows, "bright"), amplitude_law(rows, "dark", DARK_LAW_MIN_DIST)
     kappa = bright_law[0] / WHITE_PAPER_REFLECTIVITY
     f = {"kappa": kappa, "bright_law": bright_law, "dark_law": dark_law, "ir_frames": len(rows)}
 
@@ -98,17 +106,24 @@ def fit_sensor_model(folder, res, board=None):
     f["noise_c_sim"] = f["noise_c_dn"] / kappa
     del bsd
 
-    # Brightness bias: dark - bright = B (1/A_dark - 1/A_bright), no intercept.
+    # Brightness bias: dark - bright = B (A_dark^-p - A_bright^-p), no intercept; the power p
+    # from BIAS_POWERS by the least rms (the bias stays near 0 above ~2000 DN and rises steeply
+    # below ~1000 DN, so steep powers fit best).
     dmb = np.array([r["dark_minus_bright"] for r, _, _ in rows])
     ok = np.isfinite(dmb)
-    x = 1.0 / Ad[ok] - 1.0 / Ab[ok]
-    f["bias_b_dn"] = float(x @ dmb[ok] / (x @ x))
-    f["bias_rms_mm"] = float(np.sqrt(np.mean((f["bias_b_dn"] * x - dmb[ok]) ** 2)))
+    best = None
+    for p in BIAS_POWERS:
+        x = Ad[ok] ** -p - Ab[ok] ** -p
+        B = float(x @ dmb[ok] / (x @ x))
+        rms = float(np.sqrt(np.mean((B * x - dmb[ok]) ** 2)))
+        if best is None or rms < best[2]:
+            best = (p, B, rms)
+    f["bias_power"], f["bias_b_dn"], f["bias_rms_mm"] = best
     f["bias_frames"] = int(ok.sum())
     f["bias_min_dn"] = float(Ad.min())
-    f["bias_b_sim"] = f["bias_b_dn"] / kappa
+    f["bias_b_sim"] = f["bias_b_dn"] * kappa ** -f["bias_power"]
     f["bias_min_sim"] = f["bias_min_dn"] / kappa
-    f["bias_max_mm"] = f["bias_b_dn"] / f["bias_min_dn"]
+    f["bias_max_mm"] = f["bias_b_dn"] * f["bias_min_dn"] ** -f["bias_power"]
 
     # Saturation: invalid fraction of bright windows against the bright amplitude the law
     # predicts (every measured frame, not only those with an IR image); linear ramp lo -> hi.
@@ -126,24 +141,49 @@ def fit_sensor_model(folder, res, board=None):
     return f
 
 
+def save_fit(f, path):
+    """Writes the fitted figures as JSON (tuples as lists)."""
+    import json
+    with open(path, "w") as fh:
+        json.dump({k: list(v) if isinstance(v, tuple) else v for k, v in f.items()}, fh, indent=1, sort_keys=True)
+        fh.write("\n")
+
+
+def load_fit(path):
+    """Reads figures written by save_fit; KeyError names a missing one."""
+    import json
+    with open(path) as fh:
+        f = json.load(fh)
+    for k in ("kappa", "bright_law", "dark_law", "noise_floor_mm", "noise_c_dn", "bias_b_dn", "bias_power"):
+        if k not in f:
+            raise KeyError(f"{path}: no '{k}' (write it with sensor_check --save-fit)")
+    for k in ("bright_law", "dark_law", "noise_c_spread"):
+        if k in f:
+            f[k] = tuple(f[k])
+    return f
+
+
 def fit_lines(f):
     kb, mb, pb, rb = f["bright_law"]
     kd, md, pd, rd = f["dark_law"]
     return [
         f"Sensor model fitted on {f['ir_frames']} frames with an IR image (amplitude = median IR DN of the",
         "square windows; the noise floor and the saturation ramp use every measured frame):",
-        f"  bright amplitude  A = {kb:.0f} DN x cos^{mb:.2f} x z^{pb:.2f}  (rms {rb:.2f} in log A)",
-        f"  dark amplitude    A = {kd:.0f} DN x cos^{md:.2f} x z^{pd:.2f}  (rms {rd:.2f} in log A)",
+        f"  bright amplitude  A = {kb:.0f} DN x cos^{mb:.2f} / z^2  (rms {rb:.2f} in log A; unclipped frames)",
+        f"  dark amplitude    A = {kd:.0f} DN x cos^{md:.2f} / z^2  (rms {rd:.2f} in log A; frames beyond"
+        f" {DARK_LAW_MIN_DIST:g} m)",
         f"  scale: white paper = simulator reflectivity {WHITE_PAPER_REFLECTIVITY:g}, so A_DN = {f['kappa']:.0f} x a,"
         "  a = r cos(theta) / z^2 [1/m^2]",
         f"  noise: sigma^2 = floor^2 + (C / A)^2; floor {f['noise_floor_mm']:.2f} mm (bright-square spread);"
         f" C = {f['noise_c_dn']:.0f} DN mm",
         f"         (10-90 % of frames {f['noise_c_spread'][0]:.0f}-{f['noise_c_spread'][1]:.0f};"
         f" free power law: excess ~ A^{f['noise_power']:.2f}); simulator C = {f['noise_c_sim']:.4f} mm/m^2",
-        f"  bias:  dark - bright = B (1/A_dark - 1/A_bright), B = {f['bias_b_dn']:.0f} DN mm"
-        f" (rms {f['bias_rms_mm']:.1f} mm over {f['bias_frames']} frames);",
-        f"         simulator B = {f['bias_b_sim']:.4f} mm/m^2; lowest fitted amplitude {f['bias_min_dn']:.0f} DN"
-        f" = a {f['bias_min_sim']:.4f} (bias there {f['bias_max_mm']:.1f} mm)",
+        f"  bias:  dark - bright = B (A_dark^-p - A_bright^-p), p = {f['bias_power']:g} (least rms of"
+        f" {', '.join(f'{p:g}' for p in BIAS_POWERS)}),",
+        f"         B = {f['bias_b_dn']:.4g} DN^p mm (rms {f['bias_rms_mm']:.1f} mm over {f['bias_frames']} frames);"
+        f" simulator B = {f['bias_b_sim'] * 1e-3:.4g} m (1/m^2)^p;",
+        f"         held below the lowest fitted amplitude {f['bias_min_dn']:.0f} DN = a {f['bias_min_sim']:.4f}"
+        f" (bias there {f['bias_max_mm']:.1f} mm)",
         f"  saturation: bright windows invalid on a ramp from {f['sat_lo_dn']:.0f} to {f['sat_hi_dn']:.0f} DN"
         f" (rms {f['sat_rms']:.2f}); simulator a {f['sat_lo_sim']:.2f}-{f['sat_hi_sim']:.2f} 1/m^2",
     ]

@@ -611,7 +611,7 @@ TEST(SimDepthEffects, IdealProfileWritesTheInputDepthPlusOffset) {
   scene.z[2 * w + 3] = 2.5f;
   const SensorEffects ideal = sensorProfile("ideal");
   DepthImage out;
-  applyDepthEffects(ideal, scene.view(w, h), 0.004, 1, 2, &out);
+  applyDepthEffects(ideal, scene.view(w, h), 0.004, 1.0, 1, 2, &out);
   ASSERT_EQ(out.encoding, DepthEncoding::kF32Metres);
   ASSERT_EQ(out.width, static_cast<uint32_t>(w));
   ASSERT_EQ(out.height, static_cast<uint32_t>(h));
@@ -627,7 +627,7 @@ TEST(SimDepthEffects, IdealProfileWritesTheInputDepthPlusOffset) {
   // With quantisation: millimetres, rounded.
   SensorEffects quantised = ideal;
   quantised.quantisation = true;
-  applyDepthEffects(quantised, scene.view(w, h), 0.0, 1, 2, &out);
+  applyDepthEffects(quantised, scene.view(w, h), 0.0, 1.0, 1, 2, &out);
   ASSERT_EQ(out.encoding, DepthEncoding::kU16Millimetres);
   EXPECT_FLOAT_EQ(out.depthAt(3, 2), 2.5f);
   EXPECT_FLOAT_EQ(out.depthAt(1, 1), 1.25f);
@@ -640,7 +640,7 @@ TEST(SimDepthEffects, AxialNoiseOfAFlatPatchMatchesTheModel) {
   SensorEffects fx = sensorProfile("ideal");
   fx.axial_noise = true;
   DepthImage out;
-  applyDepthEffects(fx, scene.view(n, n + 1), 0.0, 7, 8, &out);
+  applyDepthEffects(fx, scene.view(n, n + 1), 0.0, 1.0, 7, 8, &out);
   double sum = 0, sum2 = 0;
   int count = 0;
   for (int v = 1; v <= n; ++v)
@@ -657,10 +657,109 @@ TEST(SimDepthEffects, AxialNoiseOfAFlatPatchMatchesTheModel) {
   EXPECT_NEAR(sigma / axialNoiseSigma(1.0, 0.0), 1.0, 0.10) << sigma;
   // Reproducible from the seeds; another noise seed, another realisation.
   DepthImage again, other;
-  applyDepthEffects(fx, scene.view(n, n + 1), 0.0, 7, 8, &again);
-  applyDepthEffects(fx, scene.view(n, n + 1), 0.0, 9, 8, &other);
+  applyDepthEffects(fx, scene.view(n, n + 1), 0.0, 1.0, 7, 8, &again);
+  applyDepthEffects(fx, scene.view(n, n + 1), 0.0, 1.0, 9, 8, &other);
   EXPECT_EQ(bytesOf(out), bytesOf(again));
   EXPECT_NE(bytesOf(out), bytesOf(other));
+}
+
+/// Mean, standard deviation and horizontal-neighbour correlation of rows 1..n of a
+/// rendered n x (n + 1) flat view, and its count of invalid pixels.
+struct PatchStats {
+  double mean = 0, sigma = 0, corr = 0;
+  int invalid = 0;
+};
+PatchStats patchStats(const DepthImage& img, int n) {
+  PatchStats st;
+  double sum = 0, sum2 = 0;
+  int count = 0;
+  for (int v = 1; v <= n; ++v)
+    for (int u = 0; u < n; ++u) {
+      const double z = img.depthAt(u, v);
+      if (!(z > 0)) {
+        ++st.invalid;
+        continue;
+      }
+      sum += z;
+      sum2 += z * z;
+      ++count;
+    }
+  if (count == 0) return st;
+  st.mean = sum / count;
+  st.sigma = std::sqrt(std::max(0.0, sum2 / count - st.mean * st.mean));
+  double sab = 0, saa = 0;
+  for (int v = 1; v <= n; ++v)
+    for (int u = 0; u + 1 < n; ++u) {
+      const double a = img.depthAt(u, v) - st.mean, b = img.depthAt(u + 1, v) - st.mean;
+      sab += a * b;
+      saa += a * a;
+    }
+  st.corr = sab / saa;
+  return st;
+}
+
+TEST(SimDepthEffects, AmplitudeNoiseFollowsTheFittedLaw) {
+  const int n = 200;
+  FlatView scene(n, n + 1, 1.0f);
+  std::fill(scene.reflectivity.begin(), scene.reflectivity.end(), 0.02f);  // a = 0.02 / m^2
+  SensorEffects fx = sensorProfile("ideal");
+  fx.axial_noise = fx.amplitude_noise = true;
+  DepthImage out;
+  applyDepthEffects(fx, scene.view(n, n + 1), 0.0, 1.0, 3, 4, &out);
+  const double weak = fx.amplitude_noise_coeff / 0.02;
+  const double expected = std::sqrt(std::pow(fx.amplitude_noise_floor, 2) + weak * weak);
+  EXPECT_GT(expected, 2.0 * axialNoiseSigma(1.0, 0.0));  // the amplitude term is the larger
+  EXPECT_NEAR(patchStats(out, n).sigma / expected, 1.0, 0.1);
+  EXPECT_NEAR(axialSigma(fx, 1.0f, 0.0f, 0.02f), expected, 1e-6);
+  // A bright surface keeps the range law's sigma or the floor, whichever is larger.
+  EXPECT_NEAR(axialSigma(fx, 1.0f, 0.0f, 10.0f),
+              std::max(axialNoiseSigma(1.0, 0.0), fx.amplitude_noise_floor), 1e-5);
+}
+
+TEST(SimDepthEffects, CorrelatedNoiseHasTheConfiguredNeighbourCorrelation) {
+  const int n = 200;
+  FlatView scene(n, n + 1, 1.0f);
+  SensorEffects fx = sensorProfile("ideal");
+  fx.axial_noise = fx.correlated_noise = true;
+  for (double rho : {0.3, 0.62}) {
+    fx.noise_correlation = rho;
+    DepthImage out;
+    applyDepthEffects(fx, scene.view(n, n + 1), 0.0, 1.0, 5, 6, &out);
+    const PatchStats st = patchStats(out, n);
+    EXPECT_NEAR(st.corr, rho, 0.04) << "rho " << rho;
+    EXPECT_NEAR(st.sigma / axialNoiseSigma(1.0, 0.0), 1.0, 0.1) << "rho " << rho;
+  }
+}
+
+TEST(SimDepthEffects, BiasSaturationAndDepthScale) {
+  const int n = 50;
+  FlatView scene(n, n + 1, 2.0f);
+  std::fill(scene.reflectivity.begin(), scene.reflectivity.end(), 0.1f);  // a = 0.025 / m^2
+  SensorEffects fx = sensorProfile("ideal");
+  fx.brightness_bias = true;
+  fx.brightness_bias_reference = 0.0;
+  DepthImage out;
+  applyDepthEffects(fx, scene.view(n, n + 1), 0.0, 1.0, 1, 2, &out);
+  EXPECT_NEAR(patchStats(out, n).mean - 2.0,
+              fx.brightness_bias_coeff * std::pow(0.025, -fx.brightness_bias_power), 1e-5);
+  // Below the lowest fitted amplitude the bias is held, not extrapolated.
+  EXPECT_FLOAT_EQ(brightnessBias(fx, 0.001f), brightnessBias(fx, 0.5f * static_cast<float>(
+                                                                 fx.brightness_bias_min_amplitude)));
+  // Calibrated at the reference amplitude: no bias there.
+  fx.brightness_bias_reference = 0.025;
+  EXPECT_NEAR(brightnessBias(fx, 0.025f), 0.0, 1e-7);
+  // Saturation: above the ramp every pixel is invalid, below it none.
+  fx = sensorProfile("ideal");
+  fx.saturation = true;
+  std::fill(scene.reflectivity.begin(), scene.reflectivity.end(), 1.0f);
+  FlatView near(n, n + 1, 0.5f);  // a = 4 / m^2
+  applyDepthEffects(fx, near.view(n, n + 1), 0.0, 1.0, 1, 2, &out);
+  EXPECT_EQ(patchStats(out, n).invalid, n * n);
+  applyDepthEffects(fx, scene.view(n, n + 1), 0.0, 1.0, 1, 2, &out);  // a = 0.25 / m^2
+  EXPECT_EQ(patchStats(out, n).invalid, 0);
+  // Depth scale and offset: z * scale + offset.
+  applyDepthEffects(sensorProfile("ideal"), scene.view(n, n + 1), 0.01, 0.98, 1, 2, &out);
+  EXPECT_NEAR(out.depthAt(3, 3), 2.0 * 0.98 + 0.01, 1e-6);
 }
 
 TEST(SimRender, SpeedReport) {

@@ -77,11 +77,91 @@ float incidenceTerm(float cos_theta, double max_incidence_rad) {
       kinect_v2::incidenceFactor(static_cast<double>(cos_theta), max_incidence_rad));
 }
 
+namespace {
+
+/// Weight w of the kernel [w, 1, w] whose output correlates by rho between neighbours:
+/// rho = 2 w / (1 + 2 w^2), so w = (1 - sqrt(1 - 2 rho^2)) / (2 rho); rho is capped at 0.7.
+float kernelWeight(double rho) {
+  rho = std::clamp(rho, 0.0, 0.7);
+  if (rho < 1e-6) return 0.0f;
+  return static_cast<float>((1.0 - std::sqrt(1.0 - 2.0 * rho * rho)) / (2.0 * rho));
+}
+
+/// A width x height field of unit-variance normal numbers whose horizontal and vertical
+/// neighbours correlate by rho (separable [w, 1, w] smoothing of white noise, renormalised).
+void correlatedField(int W, int H, double rho, uint64_t seed, std::vector<float>* field) {
+  const std::vector<float>& normal = normalTable();
+  const size_t n = static_cast<size_t>(W) * H;
+  std::vector<float> white(n), tmp(n);
+  Rng rng(seed);
+  for (size_t i = 0; i < n; i += 4) {
+    const uint64_t b = rng.next();
+    for (size_t k = 0; k < 4 && i + k < n; ++k) white[i + k] = normal[(b >> (16 * k)) & 0xFFFF];
+  }
+  const float w = kernelWeight(rho);
+  const float norm = 1.0f / (1.0f + 2.0f * w * w);  // both passes: variance (1 + 2 w^2)^2
+  for (int v = 0; v < H; ++v) {
+    const float* r = &white[static_cast<size_t>(v) * W];
+    float* o = &tmp[static_cast<size_t>(v) * W];
+    for (int u = 0; u < W; ++u)
+      o[u] = r[u] + w * (r[std::max(u - 1, 0)] + r[std::min(u + 1, W - 1)]);
+  }
+  field->resize(n);
+  for (int v = 0; v < H; ++v) {
+    const float* up = &tmp[static_cast<size_t>(std::max(v - 1, 0)) * W];
+    const float* mid = &tmp[static_cast<size_t>(v) * W];
+    const float* dn = &tmp[static_cast<size_t>(std::min(v + 1, H - 1)) * W];
+    float* o = &(*field)[static_cast<size_t>(v) * W];
+    for (int u = 0; u < W; ++u) o[u] = norm * (mid[u] + w * (up[u] + dn[u]));
+  }
+}
+
+/// True when a 4-neighbour of pixel (u, v) is a return whose depth differs by more than jump,
+/// or no return (the edge of a silhouette).
+bool atDepthEdge(const float* Z, int W, int H, int u, int v, float jump) {
+  const float z = Z[static_cast<size_t>(v) * W + u];
+  const int nu[4] = {u - 1, u + 1, u, u};
+  const int nv[4] = {v, v, v - 1, v + 1};
+  for (int q = 0; q < 4; ++q) {
+    if (nu[q] < 0 || nu[q] >= W || nv[q] < 0 || nv[q] >= H) continue;
+    const float zn = Z[static_cast<size_t>(nv[q]) * W + nu[q]];
+    if (!(zn > 0) || std::abs(zn - z) > jump) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+float axialSigma(const SensorEffects& fx, float z, float g2, float amplitude) {
+  float sigma = static_cast<float>(fx.axial_noise_scale) *
+                std::max(0.1f, kinect_v2::axialSigmaMm(z, g2)) * 1e-3f;
+  if (fx.amplitude_noise) {
+    const float floor = static_cast<float>(fx.amplitude_noise_floor);
+    const float weak = static_cast<float>(fx.amplitude_noise_coeff) / std::max(amplitude, 1e-6f);
+    sigma = fx.amplitude_noise_additive ? std::sqrt(sigma * sigma + weak * weak)
+                                        : std::max(sigma, std::sqrt(floor * floor + weak * weak));
+  }
+  return sigma;
+}
+
+float brightnessBias(const SensorEffects& fx, float amplitude) {
+  if (!fx.brightness_bias) return 0.0f;
+  const double a = std::max<double>(amplitude, fx.brightness_bias_min_amplitude);
+  const double p = fx.brightness_bias_power;
+  const double ref = fx.brightness_bias_reference > 0
+                         ? std::pow(std::max(fx.brightness_bias_reference,
+                                             fx.brightness_bias_min_amplitude), -p)
+                         : 0.0;
+  return static_cast<float>(fx.brightness_bias_coeff * (std::pow(a, -p) - ref));
+}
+
 // One pass per pixel, the random numbers drawn in a fixed order (the rendered frames of a seed
-// must not change): per pixel one draw for the lateral shift, flying pixel and dropout, and one
-// more for the axial noise or the interference band.
+// must not change): per pixel one draw for the lateral shift, flying pixel and dropout or
+// saturation, and one more for the axial noise or the interference band; the correlated noise
+// field, when on, comes from its own stream.
 void applyDepthEffects(const SensorEffects& fx, const DepthSceneView& in, double depth_offset,
-                       uint64_t noise_seed, uint64_t interference_seed, DepthImage* out) {
+                       double depth_scale, uint64_t noise_seed, uint64_t interference_seed,
+                       DepthImage* out) {
   const int W = in.width, H = in.height;
   const DepthEncoding enc =
       fx.quantisation ? DepthEncoding::kU16Millimetres : DepthEncoding::kF32Metres;
@@ -100,27 +180,34 @@ void applyDepthEffects(const SensorEffects& fx, const DepthSceneView& in, double
   const float a_lo = static_cast<float>(fx.dropout_amplitude_low);
   const float a_hi = static_cast<float>(fx.dropout_amplitude_high);
   const float inv_ramp = 1.0f / std::max(a_hi - a_lo, 1e-9f);
+  const float s_lo = static_cast<float>(fx.saturation_amplitude_low);
+  const float inv_s_ramp =
+      1.0f / std::max(static_cast<float>(fx.saturation_amplitude_high) - s_lo, 1e-9f);
   const float flying_p = static_cast<float>(fx.flying_probability);
   const float jump = static_cast<float>(fx.flying_jump);
   const float offset = static_cast<float>(depth_offset);
-  const float axial_scale = static_cast<float>(fx.axial_noise_scale);
+  const float scale = static_cast<float>(depth_scale);
   const bool lateral_on = fx.lateral_noise, flying_on = fx.flying_pixels;
   const bool dropout_on = fx.dropout, axial_on = fx.axial_noise;
-  const bool noisy = lateral_on || flying_on || dropout_on || axial_on || burst;
+  const bool noisy = lateral_on || flying_on || dropout_on || axial_on || burst ||
+                     fx.saturation || fx.brightness_bias;
   const float* Z = in.z;
+  std::vector<float> field;
+  if (axial_on && fx.correlated_noise)
+    correlatedField(W, H, fx.noise_correlation, noise_seed ^ 0x5DEECE66DULL, &field);
 
   for (int v = 0; v < H; ++v) {
     for (int u = 0; u < W; ++u) {
       const size_t i = static_cast<size_t>(v) * W + u;
       if (!noisy) {
         const float z = Z[i];
-        if (z > 0 && z >= zmin && z <= zmax) out->setDepth(u, v, z + offset);
+        if (z > 0 && z >= zmin && z <= zmax) out->setDepth(u, v, z * scale + offset);
         continue;
       }
       const uint64_t bits = rng.next();
       size_t s = i;
       int su = u, sv = v;
-      if (lateral_on) {
+      if (lateral_on && Z[i] > 0 && atDepthEdge(Z, W, H, u, v, jump)) {
         const float g = std::sqrt(in.g2[i]);
         const float sigma_px = 0.8f + 0.035f * g;  // Fankhauser et al. 2015, lateral
         const int k = std::min(kLateralTables - 1, static_cast<int>((sigma_px - 0.8f) * 10.0f));
@@ -149,25 +236,25 @@ void applyDepthEffects(const SensorEffects& fx, const DepthSceneView& in, double
         }
       }
       if (z < zmin || z > zmax) continue;
+      const float a = in.reflectivity[s] * in.cos_incidence[s] / (z * z);
+      const float u01 = ((bits >> 32) & 0xFFFF) * (1.0f / 65536.0f);  // dropout or saturation
       if (dropout_on) {
-        const float a = in.reflectivity[s] * in.cos_incidence[s] / (z * z);
         const float p_drop = (a_hi - a) * inv_ramp;
-        if (p_drop > 0 && ((bits >> 32) & 0xFFFF) * (1.0f / 65536.0f) < p_drop) continue;
+        if (p_drop > 0 && u01 < p_drop) continue;
       }
-      if (axial_on) {
-        const float sigma_mm = std::max(0.1f, kinect_v2::axialSigmaMm(z, in.g2[s]));
+      if (fx.saturation && a > s_lo && u01 < (a - s_lo) * inv_s_ramp) continue;
+      const bool in_band = burst && v >= band_v0 && v < band_v0 + band_h;
+      if (axial_on || in_band) {
         const uint64_t nb = rng.next();
-        z += axial_scale * sigma_mm * 1e-3f * normal[nb & 0xFFFF];
-        if (burst && v >= band_v0 && v < band_v0 + band_h) {
+        if (axial_on)
+          z += axialSigma(fx, z, in.g2[s], a) * (field.empty() ? normal[nb & 0xFFFF] : field[i]);
+        if (in_band) {
           z += static_cast<float>(fx.interference_sigma) * normal[(nb >> 16) & 0xFFFF];
           if (((nb >> 32) & 0xFFFF) * (1.0f / 65536.0f) < fx.interference_dropout) continue;
         }
-      } else if (burst && v >= band_v0 && v < band_v0 + band_h) {
-        const uint64_t nb = rng.next();
-        z += static_cast<float>(fx.interference_sigma) * normal[(nb >> 16) & 0xFFFF];
-        if (((nb >> 32) & 0xFFFF) * (1.0f / 65536.0f) < fx.interference_dropout) continue;
       }
-      z += offset;
+      z += brightnessBias(fx, a);
+      z = z * scale + offset;
       if (z > 0) out->setDepth(u, v, z);
     }
   }

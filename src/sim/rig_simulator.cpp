@@ -85,6 +85,7 @@ struct RigSimulator::Camera {
   Eigen::Isometry3d T_world_link_true, T_world_link_pub, T_world_depth, T_world_color;
   CameraInfoData color_info, depth_info;
   double depth_offset = 0.0;          ///< [m]
+  double depth_scale = 1.0;           ///< depth x this
   double phase = 0.0;                 ///< [s]
   std::vector<Eigen::Vector3f> rays;  ///< unit ray of each depth pixel, depth optical frame
   // Static background of the depth image, per pixel (z = 0: no return).
@@ -140,6 +141,10 @@ RigSimulator::RigSimulator(const RigCalibration& rig, const SceneConfig& scene,
     const Eigen::Vector3d axis = randomDirection(rng);
     cam->phase = fx_.unsynchronised ? phase : 0.0;
     cam->depth_offset = fx_.depth_offset ? offset : 0.0;
+    // The scale from its own stream, so that the draws above stay as they were.
+    Rng scale_rng(streamSeed(opt.seed, kStreamDepthScale, i));
+    const double scale = 1.0 + scale_rng.uniform(-1.0, 1.0) * fx_.max_depth_scale_error;
+    cam->depth_scale = fx_.depth_scale ? scale : 1.0;
     cam->T_world_link_pub = cam->T_world_link_true;
     if (fx_.calibration_error) {
       Eigen::Isometry3d delta = Eigen::Isometry3d::Identity();
@@ -186,6 +191,9 @@ const CameraInfoData& RigSimulator::depthInfo(size_t i) const {
 }
 double RigSimulator::depthOffset(size_t i) const {
   return cams_.at(i)->depth_offset;
+}
+double RigSimulator::depthScale(size_t i) const {
+  return cams_.at(i)->depth_scale;
 }
 const SensorIntrinsics& RigSimulator::sensor(size_t i) const {
   return cams_.at(i)->sensor;
@@ -308,7 +316,7 @@ void RigSimulator::renderDepth(Camera& cam, size_t index, const SceneSnapshot& s
   view.cos_incidence = cam.cosv.data();
   view.reflectivity = cam.refl.data();
   view.g2 = cam.g2.data();
-  applyDepthEffects(fx_, view, cam.depth_offset,
+  applyDepthEffects(fx_, view, cam.depth_offset, cam.depth_scale,
                     streamSeed(opt_.seed, kStreamDepthNoise, index, frame_index),
                     streamSeed(opt_.seed, kStreamInterference, index, frame_index), out);
 }

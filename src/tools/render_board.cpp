@@ -9,7 +9,10 @@
 //       [--dark-reflectivity 0.04] [--background-distance 0] [--depth-offset 0]
 //
 // POSES.csv: header `frame,rx,ry,rz,tx,ty,tz`, one row per board pose in the depth camera's
-// optical frame: OpenCV rvec (Rodrigues, rad) and tvec (m), p_cam = R(rvec) p_board + t. Board
+// optical frame: OpenCV rvec (Rodrigues, rad) and tvec (m), p_cam = R(rvec) p_board + t. With
+// the header `frame,rx,ry,rz,tx,ty,tz,bright_reflectivity,dark_reflectivity` each row also sets
+// its squares' reflectivities (in [0, 1]; the sensor check gives each real frame's its fitted
+// amplitude), overriding --bright-reflectivity / --dark-reflectivity. Board
 // frame: origin at the first inner corner, x along a row of `cols` corners, y along a column of
 // `rows` corners, z the board normal. `frame` names the output files.
 //
@@ -89,6 +92,7 @@ struct Board {
 struct BoardPose {
   std::string frame;
   Eigen::Isometry3d T_cam_board = Eigen::Isometry3d::Identity();
+  double bright_reflectivity = -1, dark_reflectivity = -1;  ///< < 0: the options' values
 };
 
 Options parseArgs(int argc, char** argv) {
@@ -109,7 +113,8 @@ Options parseArgs(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   app.add_option("--out", o.out, "output folder (created if missing)")->required();
   app.add_option("--profile", o.profile,
-                 "sensor profile: ideal|kinect_v2_calibrated|kinect_v2_field")
+                 "sensor profile: ideal|kinect_v2_calibrated|kinect_v2_field|"
+                 "kinect_v2_uncalibrated")
       ->capture_default_str()
       ->check(tools::throwingCheck("PROFILE", [](const std::string& v) { sim::sensorProfile(v); }));
   app.add_option("--off", o.off, "switch this sensor effect off (repeatable), e.g. axial_noise")
@@ -184,9 +189,12 @@ std::vector<BoardPose> readPoses(const std::string& path) {
     s.erase(s.find_last_not_of(" \t\r") + 1);
     return s;
   };
-  if (!std::getline(f, line) || trim(line) != "frame,rx,ry,rz,tx,ty,tz")
-    fail(path, ": the first line must be the header frame,rx,ry,rz,tx,ty,tz (got \"", trim(line),
-         "\")");
+  const std::string plain = "frame,rx,ry,rz,tx,ty,tz";
+  const std::string with_refl = plain + ",bright_reflectivity,dark_reflectivity";
+  if (!std::getline(f, line) || (trim(line) != plain && trim(line) != with_refl))
+    fail(path, ": the first line must be the header ", plain, " or ", with_refl, " (got \"",
+         trim(line), "\")");
+  const size_t fields = trim(line) == plain ? 7 : 9;
   std::vector<BoardPose> poses;
   std::set<std::string> seen;
   for (int n = 2; std::getline(f, line); ++n) {
@@ -194,15 +202,16 @@ std::vector<BoardPose> readPoses(const std::string& path) {
     std::vector<std::string> cells;
     std::stringstream ss(line);
     for (std::string c; std::getline(ss, c, ',');) cells.push_back(trim(c));
-    if (cells.size() != 7) fail(path, ":", n, ": expected 7 fields, got ", cells.size());
+    if (cells.size() != fields)
+      fail(path, ":", n, ": expected ", fields, " fields, got ", cells.size());
     BoardPose p;
     p.frame = cells[0];
     if (p.frame.empty() || p.frame.find_first_of("/\\") != std::string::npos || p.frame == "." ||
         p.frame == "..")
       fail(path, ":", n, ": frame \"", p.frame, "\" is not a file name");
     if (!seen.insert(p.frame).second) fail(path, ":", n, ": frame \"", p.frame, "\" repeats");
-    double x[6];
-    for (int k = 0; k < 6; ++k) {
+    double x[8];
+    for (size_t k = 0; k + 1 < fields; ++k) {
       size_t used = 0;
       try {
         x[k] = std::stod(cells[k + 1], &used);
@@ -216,6 +225,13 @@ std::vector<BoardPose> readPoses(const std::string& path) {
     const double angle = rvec.norm();
     if (angle > 0) p.T_cam_board.linear() = Eigen::AngleAxisd(angle, rvec / angle).matrix();
     p.T_cam_board.translation() = Eigen::Vector3d(x[3], x[4], x[5]);
+    if (fields == 9) {
+      for (int k = 6; k < 8; ++k)
+        if (x[k] < 0 || x[k] > 1)
+          fail(path, ":", n, ": field ", k + 2, " (a reflectivity) must be in [0, 1], got ", x[k]);
+      p.bright_reflectivity = x[6];
+      p.dark_reflectivity = x[7];
+    }
     poses.push_back(p);
   }
   if (poses.empty()) fail(path, ": no poses");
@@ -323,7 +339,7 @@ int main(int argc, char** argv) {
   try {
     sim::SensorEffects fx = sim::sensorProfile(o.profile);
     for (const std::string& e : o.off) sim::switchOffEffect(&fx, e);
-    const Board board{o.cols,
+    Board board{o.cols,
                       o.rows,
                       o.dark_parity,
                       o.square,
@@ -341,10 +357,14 @@ int main(int argc, char** argv) {
     BoardScene scene;
     size_t written = 0;
     for (size_t r = 0; r < poses.size(); ++r) {
+      if (poses[r].bright_reflectivity >= 0) {
+        board.bright = static_cast<float>(poses[r].bright_reflectivity);
+        board.dark = static_cast<float>(poses[r].dark_reflectivity);
+      }
       scene.cast(o, board, poses[r].T_cam_board, max_inc);
       for (int k = 0; k < o.repeat; ++k) {
         DepthImage img;
-        sim::applyDepthEffects(fx, scene.view(o), o.depth_offset_mm * 1e-3,
+        sim::applyDepthEffects(fx, scene.view(o), o.depth_offset_mm * 1e-3, 1.0,
                                sim::streamSeed(o.seed, sim::kStreamDepthNoise, r, k),
                                sim::streamSeed(o.seed, sim::kStreamInterference, r, k), &img);
         const std::string name =

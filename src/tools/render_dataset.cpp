@@ -100,7 +100,8 @@ Options parseArgs(int argc, char** argv) {
   app.add_option("--cameras", cameras, "only these cameras, comma-separated (default: all)")
       ->option_text("cam1,cam2");
   app.add_option("--profile", o.profile,
-                 "sensor profile: ideal|kinect_v2_calibrated|kinect_v2_field")
+                 "sensor profile: ideal|kinect_v2_calibrated|kinect_v2_field|"
+                 "kinect_v2_uncalibrated")
       ->capture_default_str()
       ->check(tools::throwingCheck("PROFILE", [](const std::string& v) { sim::sensorProfile(v); }));
   app.add_option("--split", o.split, "dataset split the images go to (train, val, test, ...)")

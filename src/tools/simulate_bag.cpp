@@ -3,7 +3,7 @@
 //   rosrun drill_pipe_pose simulate_bag --scene config/scenes/thesis_vertical.yaml --out X.bag
 //       [--rig config/rigs/thesis_lab.yaml] [--duration 10] [--start 0] [--profile NAME]
 //       [--seed 1] [--no-detection] [--color] [--crop] [--sensors config/sensors] [--quiet]
-//       [--effect-off EFFECT]...
+//       [--effect-off EFFECT]... [--amplitude-noise max|additive]
 //
 // --crop sends each SensorFrame's depth cropped to its boxes' frustum (roi), as a bandwidth-saving
 // sensor node does: bags are ~100x smaller and the estimator's poses are the same.
@@ -12,7 +12,9 @@
 // the kinect2_bridge-style camera topics (QHD colour ~1.5 MB per frame: keep such bags short).
 // --effect-off switches one of the profile's sensor effects off (repeatable; the names are
 // SensorEffects' fields: axial_noise, lateral_noise, depth_offset, flying_pixels, ...), to
-// measure what each costs the estimator.
+// measure what each costs the estimator. --amplitude-noise additive adds the fitted weak-return
+// noise to the literature's range law (sqrt(sigma_z^2 + (C / a)^2)) instead of taking the larger
+// of the two (the default, max): the two readings of the fit beyond its 1.5 m of data.
 // Exit status 0; 1 on bad input files or an unwritable bag; 2 on a bad command line.
 #include <drill_pipe_pose/SensorFrame.h>
 #include <ros/package.h>
@@ -64,6 +66,7 @@ int main(int argc, char** argv) {
   double duration = 10.0, start = 0.0;
   bool quiet = false, crop = false;
   std::vector<std::string> effects_off;
+  std::string amplitude_noise = "max";
   sim::SimulatorOptions opt;
   opt.sensor_config_dir = pkg + "/config/sensors";
   opt.stamp_origin_ns = 1000000000;  // t = 0 at ROS time 1 s (0 means "latest" to tf2)
@@ -85,7 +88,8 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::Range(0.0, 86400.0));
   app.add_option("--profile", opt.profile,
-                 "sensor profile: ideal|kinect_v2_calibrated|kinect_v2_field")
+                 "sensor profile: ideal|kinect_v2_calibrated|kinect_v2_field|"
+                 "kinect_v2_uncalibrated")
       ->capture_default_str()
       ->check(tools::throwingCheck("PROFILE", [](const std::string& v) { sim::sensorProfile(v); }));
   app.add_option("--seed", opt.seed, "random seed of the simulation")->capture_default_str();
@@ -108,11 +112,17 @@ int main(int argc, char** argv) {
         sim::SensorEffects fx;
         sim::switchOffEffect(&fx, v);
       }));
+  app.add_option("--amplitude-noise", amplitude_noise,
+                 "weak-return noise beyond the fitted data: max (larger of it and the range "
+                 "law) or additive (added to the range law in quadrature)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"max", "additive"}));
   tools::parseOrExit(app, argc, argv);
   try {
-    if (!effects_off.empty()) {
+    if (!effects_off.empty() || amplitude_noise != "max") {
       sim::SensorEffects fx = sim::sensorProfile(opt.profile);
       for (const std::string& e : effects_off) sim::switchOffEffect(&fx, e);
+      fx.amplitude_noise_additive = amplitude_noise == "additive";
       opt.effects = fx;
     }
     auto simulator = sim::loadScenario(rig, scene, opt);

@@ -21,15 +21,27 @@ struct DepthSceneView {
   const float* g2 = nullptr;             ///< incidence term of the noise model (incidenceTerm)
 };
 
-/// Applies every enabled depth effect of `fx` (lateral noise, flying pixels, range limits,
-/// dropout, axial noise, interference bursts, the depth offset, quantisation) and writes the
-/// depth image: 16UC1 millimetres with quantisation, else 32FC1 metres. `depth_offset` [m] is
-/// added to every valid return. noise_seed and interference_seed seed the two random streams (the
-/// renderer derives them from (seed, camera, frame): streamSeed with kStreamDepthNoise and
-/// kStreamInterference). The random numbers are drawn in a fixed order: a seed's frames never
-/// change.
+/// Applies every enabled depth effect of `fx` (lateral noise at depth edges, flying pixels,
+/// range limits, dropout and saturation by the returned amplitude, axial noise by range,
+/// incidence and amplitude, optionally spatially correlated, interference bursts, the
+/// brightness bias, the camera's depth scale and offset, quantisation) and writes the depth
+/// image: 16UC1 millimetres with quantisation, else 32FC1 metres. A valid return z becomes
+/// (z + noise + bias) * depth_scale + depth_offset [m]. noise_seed and interference_seed seed
+/// the random streams (the renderer derives them from (seed, camera, frame): streamSeed with
+/// kStreamDepthNoise and kStreamInterference). The random numbers are drawn in a fixed order: a
+/// seed's frames never change.
 void applyDepthEffects(const SensorEffects& fx, const DepthSceneView& in, double depth_offset,
-                       uint64_t noise_seed, uint64_t interference_seed, DepthImage* out);
+                       double depth_scale, uint64_t noise_seed, uint64_t interference_seed,
+                       DepthImage* out);
+
+/// Standard deviation [m] of the axial noise at depth z [m], incidence term g2 and returned
+/// amplitude a = reflectivity cos(theta) / z^2 [1/m^2]: Fankhauser's sigma_z (times
+/// axial_noise_scale), or with amplitude_noise the larger of it and sqrt(floor^2 + (C / a)^2).
+float axialSigma(const SensorEffects& fx, float z, float g2, float amplitude);
+
+/// Depth bias [m] (+ = farther) of a return of amplitude a [1/m^2] (0 when brightness_bias is
+/// off): B (max(a, min_amplitude)^-p - reference^-p).
+float brightnessBias(const SensorEffects& fx, float amplitude);
 
 /// The incidence term g^2 = (theta / (pi/2 - theta))^2 of Fankhauser's model from cos(theta),
 /// theta clamped to max_incidence_rad (kinect_v2::incidenceFactor, as a float).

@@ -30,6 +30,7 @@ enum Stream : uint64_t {
   kStreamClockJitter = 5,
   kStreamWear = 6,
   kStreamInterference = 7,
+  kStreamDepthScale = 8,
 };
 
 /// xoshiro256+ (Blackman, Vigna 2018), with uniform and normal helpers.

@@ -32,7 +32,8 @@
 namespace drill_pipe_pose::sim {
 
 struct SimulatorOptions {
-  std::string profile = "kinect_v2_calibrated";  ///< ideal | kinect_v2_calibrated | kinect_v2_field
+  /// ideal | kinect_v2_calibrated | kinect_v2_field | kinect_v2_uncalibrated
+  std::string profile = "kinect_v2_calibrated";
   uint32_t seed = 1;                             ///< every random stream derives from it
   bool simulated_detection = true;               ///< fill SensorFrameData::boxes
   bool color = false;                            ///< render the BGR8 colour image too
@@ -76,6 +77,8 @@ class RigSimulator {
   const CameraInfoData& depthInfo(size_t i) const;
   /// Per-camera residual depth offset added to every depth [m] (0 when off).
   double depthOffset(size_t i) const;
+  /// Per-camera depth scale (depth x this before the offset; 1 when the effect is off).
+  double depthScale(size_t i) const;
 
   /// Capture times [s] in [t0, t1) of all cameras, sorted: (time, camera).
   std::vector<std::pair<double, size_t>> captureSchedule(double t0, double t1) const;

@@ -39,9 +39,53 @@ struct SensorEffects {
   bool axial_noise = true;
   double axial_noise_scale = 1.0;  ///< multiplies sigma_z (1 = the paper's fit)
   /// Lateral noise of the same paper: sigma_L[px] = 0.8 + 0.035 theta / (pi/2 - theta),
-  /// realised by reading each output pixel from a randomly shifted source pixel.
+  /// realised by reading an output pixel from a randomly shifted source pixel, at depth edges
+  /// only (a 4-neighbour differs by more than flying_jump): the paper measured it as the jitter
+  /// of an edge, and on smooth tilted surfaces a real Kinect v2 shows no such extra spread (the
+  /// bright squares of a chessboard at 0.5-1.5 m and 4-33 deg: docs/sensor_check.md).
   bool lateral_noise = true;
   double max_incidence_deg = 84.0;  ///< incidence angles are clamped here in the noise models
+  // --- effects of the returned amplitude a = reflectivity cos(theta) / z^2 [1/m^2], fitted to
+  // a real Kinect v2 imaging a chessboard at 0.5-1.5 m (`scripts/sensor_check DATA --fit`,
+  // docs/sensor_check.md). The fit is in the IR image's digital numbers (DN); the simulator's
+  // amplitude is tied to them by white paper = reflectivity 0.8, i.e. A_DN = 40260 a.
+  /// Noise of a weak return: sigma = max(sigma_z, sqrt(floor^2 + (C / a)^2)). Fitted: the noise
+  /// of the dark squares grows as 1/A (free power law: A^-1.01), the bright squares' spread is
+  /// the floor. Beyond the data (a < 0.02, i.e. any surface at 5-7 m) the 1/a term is
+  /// extrapolated; sigma_z (the paper's fit, measured on its own target) stays the lower bound,
+  /// so it only adds where a surface is darker than that target would be at its range.
+  bool amplitude_noise = true;
+  double amplitude_noise_floor = 0.00146;  ///< [m] bright-square spread 1.49 mm less quantisation
+  double amplitude_noise_coeff = 1.397e-4;  ///< [m / m^2] C: 5622 DN mm / 40260
+  /// The other reading beyond the data: sigma = sqrt(sigma_z^2 + (C / a)^2), the weak-return
+  /// term added to the range law (which then counts range twice); scripts/bench compares both.
+  bool amplitude_noise_additive = false;
+  /// Spatially correlated depth noise: the axial noise of each pixel is a field of normal
+  /// numbers smoothed by the separable kernel [w, 1, w] (renormalised), w chosen so that
+  /// horizontally or vertically adjacent pixels correlate by noise_correlation. A real Kinect
+  /// v2 behind kinect2_bridge (bilateral and edge-aware filters on by default) shows 0.45-0.56
+  /// on a chessboard with each square's mean removed, 0.59 on the difference of two frames.
+  bool correlated_noise = true;
+  double noise_correlation = 0.62;  ///< chosen so that the sensor check's corr sq matches (<= 0.7)
+  /// Depth bias of a weak return: + B max(a, brightness_bias_min_amplitude)^-p (farther), less
+  /// B brightness_bias_reference^-p (what a calibration on a target of that amplitude removed;
+  /// reference 0: nothing removed). Fitted: dark minus bright squares = B (A_dark^-p -
+  /// A_bright^-p), p = 4 (least rms of the powers 0.5-4: the bias stays near 0 above ~2000 DN
+  /// and rises steeply below ~1000 DN), B = 1.06e13 DN^4 mm (rms 6.5 mm over 23 frames). Held
+  /// constant below the lowest fitted amplitude (781 DN, 28.5 mm there: not extrapolated), so at
+  /// 5-7 m every surface reads about the same bias, which a depth-offset calibration at the
+  /// rig's range removes (the calibrated profiles' reference).
+  bool brightness_bias = true;
+  double brightness_bias_coeff = 4.035e-9;         ///< [m (1/m^2)^p] B: 1.06e13 DN^4 mm / 40260^4
+  double brightness_bias_power = 4.0;              ///< p
+  double brightness_bias_min_amplitude = 0.0194;   ///< [1/m^2] 781 DN / 40260
+  double brightness_bias_reference = 0.0194;       ///< [1/m^2] calibrated at the rig's range
+  /// Saturation of strong returns: invalid with a probability rising linearly from 0 at
+  /// saturation_amplitude_low to 1 at saturation_amplitude_high. Fitted on the bright squares'
+  /// invalid fraction (all gone at 0.55-0.63 m, none beyond 0.76 m): 56000-76000 DN.
+  bool saturation = true;
+  double saturation_amplitude_low = 1.39;   ///< [1/m^2] 56000 DN / 40260
+  double saturation_amplitude_high = 1.89;  ///< [1/m^2] 76000 DN / 40260
   /// 1 mm quantisation: 16UC1 millimetre output as kinect2_bridge publishes (REP 118). Off:
   /// 32FC1 metres, unquantised.
   bool quantisation = true;
@@ -73,6 +117,11 @@ struct SensorEffects {
   /// offset is several cm (Lachat et al., ISPRS 2015; Fankhauser et al. 2015).
   bool depth_offset = true;
   double max_depth_offset = 0.005;  ///< [m]
+  /// Per-camera depth scale error: depth x (1 + s), s uniform in +-max_depth_scale_error, seeded
+  /// per camera. The real device read -1.9 % (depth against the chessboard plane from PnP, with
+  /// the IR intrinsics fitted jointly on the same frames: -18.7 mm/m). Off when calibrated.
+  bool depth_scale = false;
+  double max_depth_scale_error = 0.019;
   /// Interference bursts between overlapping ToF cameras (Sarbolandi et al., CVIU 2015, Sec. 7:
   /// multi-device interference shows as sporadic noisy/invalid regions). Per camera frame, with
   /// `interference_probability`, a horizontal band of `interference_band_fraction` of the rows
@@ -109,13 +158,14 @@ struct SensorEffects {
   double color_noise_sigma = 3.0;  ///< [DN] Gaussian per channel (typical CMOS at indoor light)
 };
 
-/// The named profiles (docs/conventions.md): "ideal", "kinect_v2_calibrated", "kinect_v2_field".
-/// Throws InputError for any other name.
+/// The named profiles (docs/conventions.md): "ideal", "kinect_v2_calibrated", "kinect_v2_field",
+/// "kinect_v2_uncalibrated". Throws InputError for any other name.
 SensorEffects sensorProfile(const std::string& name);
 
 /// Switches one effect of `effects` off by its field name (axial_noise, lateral_noise,
-/// quantisation, dropout, flying_pixels, depth_offset, interference, unsynchronised,
-/// calibration_error, wear, mud, color_noise): to see what each costs the estimator. Throws
+/// amplitude_noise, correlated_noise, brightness_bias, saturation, quantisation, dropout,
+/// flying_pixels, depth_offset, depth_scale, interference, unsynchronised, calibration_error,
+/// wear, mud, color_noise): to see what each costs the estimator. Throws
 /// InputError naming the valid names for an unknown one.
 void switchOffEffect(SensorEffects* effects, const std::string& name);
 
