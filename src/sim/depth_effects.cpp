@@ -207,7 +207,8 @@ void applyDepthEffects(const SensorEffects& fx, const DepthSceneView& in, double
       const uint64_t bits = rng.next();
       size_t s = i;
       int su = u, sv = v;
-      if (lateral_on && Z[i] > 0 && atDepthEdge(Z, W, H, u, v, jump)) {
+      if (lateral_on && (!fx.lateral_noise_at_edges_only ||
+                         (Z[i] > 0 && atDepthEdge(Z, W, H, u, v, jump)))) {
         const float g = std::sqrt(in.g2[i]);
         const float sigma_px = 0.8f + 0.035f * g;  // Fankhauser et al. 2015, lateral
         const int k = std::min(kLateralTables - 1, static_cast<int>((sigma_px - 0.8f) * 10.0f));

@@ -117,6 +117,12 @@ void switchOffEffect(SensorEffects* effects, const std::string& name) {
   fail("unknown sensor effect \"", name, "\" (expected one of ", names, ")");
 }
 
+void useModelBeforeFit(SensorEffects* effects) {
+  effects->amplitude_noise = effects->correlated_noise = false;
+  effects->brightness_bias = effects->saturation = effects->depth_scale = false;
+  effects->lateral_noise_at_edges_only = false;
+}
+
 double axialNoiseSigma(double z, double theta, double max_incidence_rad) {
   const double mm =
       kinect_v2::axialSigmaMm(z, kinect_v2::incidenceFactor(std::cos(theta), max_incidence_rad));

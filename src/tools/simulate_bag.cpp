@@ -3,7 +3,7 @@
 //   rosrun drill_pipe_pose simulate_bag --scene config/scenes/thesis_vertical.yaml --out X.bag
 //       [--rig config/rigs/thesis_lab.yaml] [--duration 10] [--start 0] [--profile NAME]
 //       [--seed 1] [--no-detection] [--color] [--crop] [--sensors config/sensors] [--quiet]
-//       [--effect-off EFFECT]... [--amplitude-noise max|additive]
+//       [--effect-off EFFECT]... [--model fitted|before-fit|additive]
 //
 // --crop sends each SensorFrame's depth cropped to its boxes' frustum (roi), as a bandwidth-saving
 // sensor node does: bags are ~100x smaller and the estimator's poses are the same.
@@ -12,9 +12,12 @@
 // the kinect2_bridge-style camera topics (QHD colour ~1.5 MB per frame: keep such bags short).
 // --effect-off switches one of the profile's sensor effects off (repeatable; the names are
 // SensorEffects' fields: axial_noise, lateral_noise, depth_offset, flying_pixels, ...), to
-// measure what each costs the estimator. --amplitude-noise additive adds the fitted weak-return
-// noise to the literature's range law (sqrt(sigma_z^2 + (C / a)^2)) instead of taking the larger
-// of the two (the default, max): the two readings of the fit beyond its 1.5 m of data.
+// measure what each costs the estimator. --model chooses the sensor model: fitted (the profile
+// as it is), before-fit (the model before its fit to real Kinect v2 frames: white noise, no
+// amplitude effects, lateral noise on every pixel; bit-identical to that model's frames), or
+// additive (the fitted weak-return noise added to the literature's range law,
+// sqrt(sigma_z^2 + (C / a)^2), instead of the larger of the two: the other reading of the fit
+// beyond its 1.5 m of data).
 // Exit status 0; 1 on bad input files or an unwritable bag; 2 on a bad command line.
 #include <drill_pipe_pose/SensorFrame.h>
 #include <ros/package.h>
@@ -66,7 +69,7 @@ int main(int argc, char** argv) {
   double duration = 10.0, start = 0.0;
   bool quiet = false, crop = false;
   std::vector<std::string> effects_off;
-  std::string amplitude_noise = "max";
+  std::string model = "fitted";
   sim::SimulatorOptions opt;
   opt.sensor_config_dir = pkg + "/config/sensors";
   opt.stamp_origin_ns = 1000000000;  // t = 0 at ROS time 1 s (0 means "latest" to tf2)
@@ -112,17 +115,18 @@ int main(int argc, char** argv) {
         sim::SensorEffects fx;
         sim::switchOffEffect(&fx, v);
       }));
-  app.add_option("--amplitude-noise", amplitude_noise,
-                 "weak-return noise beyond the fitted data: max (larger of it and the range "
-                 "law) or additive (added to the range law in quadrature)")
+  app.add_option("--model", model,
+                 "sensor model: fitted, before-fit (as before the fit to real frames) or additive "
+                 "(the weak-return noise added to the range law)")
       ->capture_default_str()
-      ->check(CLI::IsMember({"max", "additive"}));
+      ->check(CLI::IsMember({"fitted", "before-fit", "additive"}));
   tools::parseOrExit(app, argc, argv);
   try {
-    if (!effects_off.empty() || amplitude_noise != "max") {
+    if (!effects_off.empty() || model != "fitted") {
       sim::SensorEffects fx = sim::sensorProfile(opt.profile);
+      if (model == "before-fit") sim::useModelBeforeFit(&fx);
+      fx.amplitude_noise_additive = model == "additive";
       for (const std::string& e : effects_off) sim::switchOffEffect(&fx, e);
-      fx.amplitude_noise_additive = amplitude_noise == "additive";
       opt.effects = fx;
     }
     auto simulator = sim::loadScenario(rig, scene, opt);

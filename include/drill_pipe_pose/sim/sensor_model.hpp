@@ -44,6 +44,7 @@ struct SensorEffects {
   /// of an edge, and on smooth tilted surfaces a real Kinect v2 shows no such extra spread (the
   /// bright squares of a chessboard at 0.5-1.5 m and 4-33 deg: docs/sensor_check.md).
   bool lateral_noise = true;
+  bool lateral_noise_at_edges_only = true;  ///< false: every pixel (the model before the fit)
   double max_incidence_deg = 84.0;  ///< incidence angles are clamped here in the noise models
   // --- effects of the returned amplitude a = reflectivity cos(theta) / z^2 [1/m^2], fitted to
   // a real Kinect v2 imaging a chessboard at 0.5-1.5 m (`scripts/sensor_check DATA --fit`,
@@ -168,6 +169,11 @@ SensorEffects sensorProfile(const std::string& name);
 /// wear, mud, color_noise): to see what each costs the estimator. Throws
 /// InputError naming the valid names for an unknown one.
 void switchOffEffect(SensorEffects* effects, const std::string& name);
+
+/// The sensor model as it was before its fit to real Kinect v2 frames (white axial noise, no
+/// amplitude-dependent effects, lateral noise on every pixel): for before/after comparisons. Its
+/// frames are bit-identical to that model's for the same seed.
+void useModelBeforeFit(SensorEffects* effects);
 
 /// Axial noise standard deviation [m] at depth z [m] and incidence angle theta [rad]
 /// (Fankhauser et al. 2015, see SensorEffects::axial_noise). theta is clamped to
