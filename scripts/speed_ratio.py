@@ -1,7 +1,10 @@
 #!/usr/bin/env python3
 """Speed of two builds of bench_estimator on one bag, as the median of pairwise ratios.
 
-    scripts/speed_ratio.py OLD_BENCH NEW_BENCH BAG [--runs N] [-- OPTIONS FOR BOTH BUILDS]
+    scripts/speed_ratio.py OLD_BENCH NEW_BENCH BAG [--new-bag BAG2] [--runs N] [-- OPTIONS]
+
+--new-bag runs NEW on BAG2 (OLD stays on BAG): the cost of a change in the input, e.g. the same
+build on bags of two sensor models (then OLD_BENCH and NEW_BENCH may be the same program).
 
 Runs OLD and NEW alternately N times (default 5) on BAG, single-threaded (--threads 1, or
 --param threads=1 for a build that takes --param), reads each run's "time per cycle" line
@@ -39,6 +42,7 @@ def main():
     ap.add_argument("new")
     ap.add_argument("bag")
     ap.add_argument("--runs", type=int, default=5, help="pairs of runs (default 5)")
+    ap.add_argument("--new-bag", help="the bag NEW runs on (default: BAG)")
     args, extra = ap.parse_known_args()
     if extra and extra[0] == "--":
         extra = extra[1:]
@@ -48,7 +52,7 @@ def main():
     ratios_med, ratios_p95 = [], []
     for i in range(args.runs):
         old = run(args.old, args.bag, args.extra)
-        new = run(args.new, args.bag, args.extra)
+        new = run(args.new, args.new_bag or args.bag, args.extra)
         ratios_med.append(new[0] / old[0])
         ratios_p95.append(new[1] / old[1])
         print(f"pair {i + 1}: old median {old[0]:.2f} p95 {old[1]:.2f} ms | new median "
