@@ -16,9 +16,9 @@ does not meet (docs/sensor_check.md), the band is the one reached, so that the m
 drift away from the data unseen:
   plane sd     0.40-1.25: the real plane-fit spread holds a component stable over time and
                neither fixed to the board nor to the pixels that the model lacks
-               (full recording: 0.49-0.78 by bin; the subset's median 0.71);
-  dark-bright  within 5 mm (full recording: within 1.2 mm below 1.25 m, -3.8 mm at 1.25-1.5 m;
-               the subset's median +3.3 mm).
+               (full recording: 0.49-0.90 by bin; the subset's median 0.73);
+  dark-bright  within 5 mm (full recording: within 1.2 mm below 1.25 m, -2.9 mm at 1.25-1.5 m;
+               the subset's median +4.0 mm).
 The model before the fit (white noise, no amplitude effects) fails every band but the bright
 spread and the dark-square invalid fraction (test_old_model_fails).
 """

@@ -146,13 +146,11 @@ float axialSigma(const SensorEffects& fx, float z, float g2, float amplitude) {
 
 float brightnessBias(const SensorEffects& fx, float amplitude) {
   if (!fx.brightness_bias) return 0.0f;
-  const double a = std::max<double>(amplitude, fx.brightness_bias_min_amplitude);
-  const double p = fx.brightness_bias_power;
-  const double ref = fx.brightness_bias_reference > 0
-                         ? std::pow(std::max(fx.brightness_bias_reference,
-                                             fx.brightness_bias_min_amplitude), -p)
-                         : 0.0;
-  return static_cast<float>(fx.brightness_bias_coeff * (std::pow(a, -p) - ref));
+  kinect_v2::AmplitudeModel m;
+  m.bias_coeff = fx.brightness_bias_coeff;
+  m.bias_power = fx.brightness_bias_power;
+  m.bias_min_amplitude = fx.brightness_bias_min_amplitude;
+  return static_cast<float>(kinect_v2::weakReturnBias(m, amplitude, fx.brightness_bias_reference));
 }
 
 // One pass per pixel, the random numbers drawn in a fixed order (the rendered frames of a seed
@@ -237,7 +235,8 @@ void applyDepthEffects(const SensorEffects& fx, const DepthSceneView& in, double
         }
       }
       if (z < zmin || z > zmax) continue;
-      const float a = in.reflectivity[s] * in.cos_incidence[s] / (z * z);
+      const float rz = in.ray_z ? in.ray_z[s] : 1.0f;
+      const float a = in.reflectivity[s] * in.cos_incidence[s] * rz * rz / (z * z);
       const float u01 = ((bits >> 32) & 0xFFFF) * (1.0f / 65536.0f);  // dropout or saturation
       if (dropout_on) {
         const float p_drop = (a_hi - a) * inv_ramp;

@@ -88,6 +88,7 @@ struct RigSimulator::Camera {
   double depth_scale = 1.0;           ///< depth x this
   double phase = 0.0;                 ///< [s]
   std::vector<Eigen::Vector3f> rays;  ///< unit ray of each depth pixel, depth optical frame
+  std::vector<float> ray_z;           ///< their z components (range = depth / ray_z)
   // Static background of the depth image, per pixel (z = 0: no return).
   bool depth_ready = false;
   std::vector<float> bg_z;     ///< [m] along the optical axis
@@ -165,6 +166,8 @@ RigSimulator::RigSimulator(const RigCalibration& rig, const SceneConfig& scene,
             Eigen::Vector3f(static_cast<float>((u + d.offsetX() - d.cx()) / d.fx()),
                             static_cast<float>((v + d.offsetY() - d.cy()) / d.fy()), 1.0f)
                 .normalized();
+    cam->ray_z.resize(cam->rays.size());
+    for (size_t k = 0; k < cam->rays.size(); ++k) cam->ray_z[k] = cam->rays[k].z();
     cams_.push_back(std::move(cam));
   }
 }
@@ -316,6 +319,7 @@ void RigSimulator::renderDepth(Camera& cam, size_t index, const SceneSnapshot& s
   view.cos_incidence = cam.cosv.data();
   view.reflectivity = cam.refl.data();
   view.g2 = cam.g2.data();
+  view.ray_z = cam.ray_z.data();
   applyDepthEffects(fx_, view, cam.depth_offset, cam.depth_scale,
                     streamSeed(opt_.seed, kStreamDepthNoise, index, frame_index),
                     streamSeed(opt_.seed, kStreamInterference, index, frame_index), out);

@@ -240,7 +240,7 @@ std::vector<BoardPose> readPoses(const std::string& path) {
 
 /// Per-pixel ray cast of the board (and the background wall) into the effects' inputs.
 struct BoardScene {
-  std::vector<float> z, cos_incidence, reflectivity, g2;
+  std::vector<float> z, cos_incidence, reflectivity, g2, ray_z;
 
   void cast(const Options& o, const Board& board, const Eigen::Isometry3d& T_cam_board,
             double max_incidence_rad) {
@@ -249,6 +249,7 @@ struct BoardScene {
     cos_incidence.assign(n, 0.0f);
     reflectivity.assign(n, 0.0f);
     g2.assign(n, 0.0f);
+    ray_z.assign(n, 1.0f);
     const Eigen::Matrix3d& R = T_cam_board.linear();
     const Eigen::Vector3d& t = T_cam_board.translation();
     const Eigen::Vector3d normal = R.col(2);
@@ -260,6 +261,7 @@ struct BoardScene {
         const size_t i = static_cast<size_t>(v) * o.width + u;
         const Eigen::Vector3d ray =
             Eigen::Vector3d((u - o.cx) / o.fx, (v - o.cy) / o.fy, 1.0).normalized();
+        ray_z[i] = static_cast<float>(ray.z());
         const double nr = normal.dot(ray);
         const double s = std::abs(nr) > 1e-12 ? normal.dot(t) / nr : -1.0;  // ray length to plane
         if (s > 0) {
@@ -292,6 +294,7 @@ struct BoardScene {
     v.cos_incidence = cos_incidence.data();
     v.reflectivity = reflectivity.data();
     v.g2 = g2.data();
+    v.ray_z = ray_z.data();
     return v;
   }
 };

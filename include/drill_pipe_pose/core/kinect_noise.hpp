@@ -35,4 +35,39 @@ inline double incidenceSigmaMm(double coefficient, double z, double g2) {
   return coefficient * z * std::sqrt(z) * g2;
 }
 
+/// The effects of the returned amplitude a = reflectivity cos(theta) / z^2 [1/m^2], fitted to a
+/// real Kinect v2 imaging a chessboard at 0.5-1.5 m (`scripts/sensor_check DATA --fit`,
+/// docs/sensor_check.md; white paper = reflectivity 0.8 ties a to the IR image's numbers):
+/// the one definition the simulator draws from and the estimator predicts with.
+struct AmplitudeModel {
+  double noise_floor = 0.00146;        ///< [m] the spread of strong returns
+  double noise_coeff = 1.397e-4;       ///< [m m^-2] weak-return noise C / a
+  double bias_coeff = 4.035e-9;        ///< [m (m^-2)^p] weak-return bias B a^-p (farther)
+  double bias_power = 4.0;             ///< p
+  double bias_min_amplitude = 0.0194;  ///< [1/m^2] the bias is held below this (the data's edge)
+};
+
+/// Noise [m] of a return of amplitude a: sqrt(floor^2 + (C / a)^2).
+inline double amplitudeSigma(const AmplitudeModel& m, double a) {
+  const double weak = m.noise_coeff / std::max(a, 1e-6);
+  return std::sqrt(m.noise_floor * m.noise_floor + weak * weak);
+}
+
+/// Depth bias [m] (+ = farther) of a return of amplitude a, less the bias at `reference` (what a
+/// depth calibration on a target of that amplitude removed; 0: nothing removed):
+/// B (max(a, a_min)^-p - max(reference, a_min)^-p).
+inline double weakReturnBias(const AmplitudeModel& m, double a, double reference) {
+  // x^-p, with the fitted p = 4 without std::pow (called per point and iteration).
+  const auto inv_pow = [&m](double x) {
+    if (m.bias_power == 4.0) {
+      const double x2 = x * x;
+      return 1.0 / (x2 * x2);
+    }
+    return std::pow(x, -m.bias_power);
+  };
+  const double held = inv_pow(std::max(a, m.bias_min_amplitude));
+  const double ref = reference > 0 ? inv_pow(std::max(reference, m.bias_min_amplitude)) : 0.0;
+  return m.bias_coeff * (held - ref);
+}
+
 }  // namespace drill_pipe_pose::kinect_v2

@@ -13,12 +13,16 @@ namespace drill_pipe_pose::sim {
 
 /// Per-pixel inputs of the depth sensor effects: what the ray caster found for each pixel of a
 /// width x height depth image (row-major arrays of width * height values; z <= 0: no return).
+/// The returned amplitude of a pixel is a = reflectivity cos_incidence / range^2 [1/m^2].
 struct DepthSceneView {
   int width = 0, height = 0;             ///< [px]
   const float* z = nullptr;              ///< [m] along the optical axis
   const float* cos_incidence = nullptr;  ///< cos(angle between the ray and the surface normal)
   const float* reflectivity = nullptr;   ///< of the surface hit, for the dropout model
   const float* g2 = nullptr;             ///< incidence term of the noise model (incidenceTerm)
+  /// z component of each pixel's unit ray: the returned amplitude falls with the range,
+  /// depth / ray_z. nullptr: 1 (range = depth).
+  const float* ray_z = nullptr;
 };
 
 /// Applies every enabled depth effect of `fx` (lateral noise at depth edges, flying pixels,

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "drill_pipe_pose/core/camera_model.hpp"
+#include "drill_pipe_pose/core/kinect_noise.hpp"
 
 namespace drill_pipe_pose::sim {
 
@@ -56,8 +57,10 @@ struct SensorEffects {
   /// extrapolated; sigma_z (the paper's fit, measured on its own target) stays the lower bound,
   /// so it only adds where a surface is darker than that target would be at its range.
   bool amplitude_noise = true;
-  double amplitude_noise_floor = 0.00146;  ///< [m] bright-square spread 1.49 mm less quantisation
-  double amplitude_noise_coeff = 1.397e-4;  ///< [m / m^2] C: 5622 DN mm / 40260
+  double amplitude_noise_floor = kinect_v2::AmplitudeModel{}.noise_floor;  ///< [m] 1.49 mm less
+  ///< quantisation (the bright squares' spread)
+  double amplitude_noise_coeff = kinect_v2::AmplitudeModel{}.noise_coeff;  ///< [m m^-2] C:
+  ///< 5622 DN mm / 40260
   /// The other reading beyond the data: sigma = sqrt(sigma_z^2 + (C / a)^2), the weak-return
   /// term added to the range law (which then counts range twice); scripts/bench compares both.
   bool amplitude_noise_additive = false;
@@ -77,10 +80,13 @@ struct SensorEffects {
   /// 5-7 m every surface reads about the same bias, which a depth-offset calibration at the
   /// rig's range removes (the calibrated profiles' reference).
   bool brightness_bias = true;
-  double brightness_bias_coeff = 4.035e-9;         ///< [m (1/m^2)^p] B: 1.06e13 DN^4 mm / 40260^4
-  double brightness_bias_power = 4.0;              ///< p
-  double brightness_bias_min_amplitude = 0.0194;   ///< [1/m^2] 781 DN / 40260
-  double brightness_bias_reference = 0.0194;       ///< [1/m^2] calibrated at the rig's range
+  /// [m (1/m^2)^p] B: 1.06e13 DN^4 mm / 40260^4
+  double brightness_bias_coeff = kinect_v2::AmplitudeModel{}.bias_coeff;
+  double brightness_bias_power = kinect_v2::AmplitudeModel{}.bias_power;  ///< p
+  /// [1/m^2] 781 DN / 40260
+  double brightness_bias_min_amplitude = kinect_v2::AmplitudeModel{}.bias_min_amplitude;
+  /// [1/m^2] calibrated at the rig's range (a target there returns less than this)
+  double brightness_bias_reference = kinect_v2::AmplitudeModel{}.bias_min_amplitude;
   /// Saturation of strong returns: invalid with a probability rising linearly from 0 at
   /// saturation_amplitude_low to 1 at saturation_amplitude_high. Fitted on the bright squares'
   /// invalid fraction (all gone at 0.55-0.63 m, none beyond 0.76 m): 56000-76000 DN.

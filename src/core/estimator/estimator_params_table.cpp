@@ -128,6 +128,11 @@ ParamTable<EstimatorConfig> makeEstimatorTable() {
       P("profile_fit/incidence_noise", profile_fit.incidence_noise, "mm", atLeast(0),
         "depth sigma grows toward grazing incidence by this x z^1.5 (theta/(pi/2-theta))^2; "
         "0: off"),
+      P("profile_fit/reflectivity", profile_fit.reflectivity, "", between(0, 1),
+        "surface reflectivity the final fit predicts amplitudes with (weak-return bias and noise "
+        "of the Kinect v2); 0: off"),
+      P("profile_fit/bias_reference", profile_fit.bias_reference, "1/m^2", atLeast(0),
+        "amplitude whose weak-return bias the depth calibration removed; 0: none"),
       P("profile_fit/truncation", profile_fit.truncation, "m", positive(),
         "robust cost: residuals beyond this cost as much as this"),
       P("profile_fit/wear_margin", profile_fit.wear_margin, "m", atLeast(0),

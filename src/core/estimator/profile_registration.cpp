@@ -9,12 +9,18 @@
 #include <random>
 
 #include "drill_pipe_pose/core/errors.hpp"
+#include "drill_pipe_pose/core/kinect_noise.hpp"
 #include "drill_pipe_pose/core/quadratic.hpp"
 #include "drill_pipe_pose/core/estimator/profile_registration.hpp"
 #include "drill_pipe_pose/core/estimator/basis.hpp"
 #include "drill_pipe_pose/core/estimator/cutout.hpp"
 
 namespace drill_pipe_pose {
+
+namespace {
+/// The Kinect v2's fitted amplitude effects (the simulator draws from the same definition).
+const kinect_v2::AmplitudeModel kAmplitude;
+}  // namespace
 
 double profileResidual(const ProfileModel& model, const Eigen::Vector3d& p,
                        const Eigen::Vector3d& origin, const Eigen::Vector3d& z,
@@ -218,8 +224,25 @@ ProfileFitResult refineProfile(const std::vector<Eigen::Vector3f>& points,
     for (size_t i = 0; i < pts.size(); ++i) {
       Eigen::Vector2d gr;
       bool hit = false;
-      const double e = profileResidual(model, pts[i], o, z, e1, e2, eyes ? &(*eyes)[i] : nullptr,
-                                       &gr, &hit);
+      double e = profileResidual(model, pts[i], o, z, e1, e2, eyes ? &(*eyes)[i] : nullptr, &gr,
+                                 &hit);
+      double amp_sigma = 0.0;
+      if (hit && config.reflectivity > 0) {
+        // The point's returned amplitude at the model's surface: its weak-return bias (along the
+        // ray, farther) is taken out of the residual, its noise bounds the sigma below.
+        const Eigen::Vector3d q0 = pts[i] - o;
+        const double zc0 = q0.dot(z);
+        const Eigen::Vector3d radial = q0 - zc0 * z;
+        const Eigen::Vector3d ray = pts[i] - (*eyes)[i].cast<double>();
+        const double range = ray.norm(), rn = radial.norm();
+        if (range > 0.1 && rn > 1e-9) {
+          const Eigen::Vector3d n3 = (gr.x() * z + gr.y() * (radial / rn)).normalized();
+          const double n_dot_ray = n3.dot(ray) / range;
+          const double a = config.reflectivity * std::abs(n_dot_ray) / (range * range);
+          e -= kinect_v2::weakReturnBias(kAmplitude, a, config.bias_reference) * n_dot_ray;
+          amp_sigma = kinect_v2::amplitudeSigma(kAmplitude, a);
+        }
+      }
       const double d = std::abs(e);
       cost += std::min(d * d, T2);
       const double gate = std::min(T, std::max(0.01, 3.0 * sigmas[i]));
@@ -249,7 +272,7 @@ ProfileFitResult refineProfile(const std::vector<Eigen::Vector3f>& points,
       // pixels would pull it).
       const bool silhouette = eyes && !hit;
       if (silhouette && !(silhouettes && gr.y() >= kSilhouetteNormal)) continue;
-      double sigma = sigmas[i];
+      double sigma = std::max<double>(sigmas[i], amp_sigma);
       if (config.incidence_noise > 0 && eyes) {
         // The depth noise's growth toward grazing incidence, at the model's normal there.
         const Eigen::Vector3d ray = pts[i] - (*eyes)[i].cast<double>();
