@@ -235,7 +235,7 @@ void applyDepthEffects(const SensorEffects& fx, const DepthSceneView& in, double
         }
       }
       if (z < zmin || z > zmax) continue;
-      const float rz = in.ray_z ? in.ray_z[s] : 1.0f;
+      const float rz = in.ray_z && fx.amplitude_by_range ? in.ray_z[s] : 1.0f;
       const float a = in.reflectivity[s] * in.cos_incidence[s] * rz * rz / (z * z);
       const float u01 = ((bits >> 32) & 0xFFFF) * (1.0f / 65536.0f);  // dropout or saturation
       if (dropout_on) {

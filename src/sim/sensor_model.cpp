@@ -121,6 +121,7 @@ void useModelBeforeFit(SensorEffects* effects) {
   effects->amplitude_noise = effects->correlated_noise = false;
   effects->brightness_bias = effects->saturation = effects->depth_scale = false;
   effects->lateral_noise_at_edges_only = false;
+  effects->amplitude_by_range = false;
 }
 
 double axialNoiseSigma(double z, double theta, double max_incidence_rad) {

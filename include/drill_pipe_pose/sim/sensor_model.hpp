@@ -46,6 +46,9 @@ struct SensorEffects {
   /// bright squares of a chessboard at 0.5-1.5 m and 4-33 deg: docs/sensor_check.md).
   bool lateral_noise = true;
   bool lateral_noise_at_edges_only = true;  ///< false: every pixel (the model before the fit)
+  /// The returned amplitude falls with the range (the ray's length); false: with the depth z
+  /// (the model before the fit).
+  bool amplitude_by_range = true;
   double max_incidence_deg = 84.0;  ///< incidence angles are clamped here in the noise models
   // --- effects of the returned amplitude a = reflectivity cos(theta) / z^2 [1/m^2], fitted to
   // a real Kinect v2 imaging a chessboard at 0.5-1.5 m (`scripts/sensor_check DATA --fit`,
