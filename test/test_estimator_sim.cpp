@@ -251,14 +251,15 @@ TEST(EstimatorOnSimulator, ThesisVerticalErrorTargetsHoldOnASecondSeed) {
   }
 }
 
-// The cameras' depth calibration through the estimator: thesis_vertical on the uncalibrated
-// profile (depth offsets up to 30 mm, scales up to 1.9 %, and the weak-return brightness bias
-// of +28.5 mm at the rig's range left in), seed 31, 90 cycles. Uncorrected, both ends are off
-// by centimetres; with each camera's true depth_offset and depth_scale (RigSimulator::trueRig,
-// what simulate_bag --true-rig writes) they come back to the calibrated profile's accuracy. The
-// calibrated profile still has residual offsets up to 5 mm per camera (its brightness bias is
-// calibrated at the rig's range), so the corrected run is held to 6 mm and to a third of the
-// uncorrected error, and the calibrated run of the same seed is printed beside it.
+// The cameras' depth calibration through the estimator: thesis_vertical on the uncalibrated profile
+// (depth offsets up to 30 mm, scales up to 1.9 %, and the weak-return brightness bias of +28.5 mm
+// at the rig's range left in), seed 31, 90 cycles. Uncorrected, the cameras disagree by centimetres
+// and the ends are mostly rejected (as measured: the box end never valid, the pin end 3 of 90
+// cycles at 29.8 mm); with each camera's true depth_offset and depth_scale (RigSimulator::trueRig,
+// what simulate_bag --true-rig writes) they come back to the calibrated profile's accuracy (box 4.3
+// mm, pin 2.3 mm; calibrated profile 3.9 and 2.4 mm). The calibrated profile still has residual
+// offsets up to 5 mm per camera, so that comparison is printed, not asserted: the corrected run is
+// held to 6 mm per end, and the uncorrected one to mostly rejected or 3x the corrected error.
 TEST(EstimatorOnSimulator, DepthCorrectionFromTheRigFileUndoesUncalibratedDepth) {
   constexpr uint32_t kSeed = 31;
   constexpr int kCycles = 90;
@@ -274,12 +275,20 @@ TEST(EstimatorOnSimulator, DepthCorrectionFromTheRigFileUndoesUncalibratedDepth)
   for (int l = 0; l < kNumEnds; ++l) {
     SCOPED_TRACE(std::string(labelName(static_cast<EndLabel>(l))) + ", seed 31");
     const ErrorStats &r = raw.stats[l], &c = corrected.stats[l], &k = calibrated.stats[l];
-    std::printf("%s mean |e|: uncorrected %.1f mm, corrected %.1f mm, calibrated profile %.1f mm\n",
-                labelName(static_cast<EndLabel>(l)), r.mean_position_error * 1e3,
-                c.mean_position_error * 1e3, k.mean_position_error * 1e3);
+    std::printf(
+        "%s mean |e|: uncorrected %.1f mm (%zu/%d valid), corrected %.1f mm (%zu/%d), calibrated "
+        "profile %.1f mm (%zu/%d)\n",
+        labelName(static_cast<EndLabel>(l)), r.mean_position_error * 1e3, r.estimates, kCycles,
+        c.mean_position_error * 1e3, c.estimates, kCycles, k.mean_position_error * 1e3,
+        k.estimates, kCycles);
     EXPECT_GE(c.estimates, static_cast<size_t>(kCycles) * 9 / 10);
     EXPECT_EQ(corrected.flipped[l], 0u);
     EXPECT_LT(c.mean_position_error, 0.006);
-    EXPECT_LT(3.0 * c.mean_position_error, r.mean_position_error);
+    // Uncorrected, the cameras disagree by centimetres: most cycles are rejected (carving and
+    // the fit's checks), and what is published is off by centimetres.
+    EXPECT_TRUE(r.estimates < static_cast<size_t>(kCycles) / 2 ||
+                3.0 * c.mean_position_error < r.mean_position_error)
+        << "uncorrected: " << r.estimates << " estimates, mean " << r.mean_position_error * 1e3
+        << " mm";
   }
 }

@@ -90,7 +90,7 @@ class PoseEstimatorNode {
     ROS_INFO("pose_estimator: depth corrections from rig file '%s':%s", cfg_.rig.c_str(),
              list.empty() ? " none" : list.c_str());
     for (const auto& cam : runner_.camerasWithoutDepthCorrection())
-      ROS_WARN("pose_estimator: camera '%s' is not in the rig file '%s': its depth is not corrected",
+      ROS_WARN("pose_estimator: camera '%s' is not in the rig file '%s': depth not corrected",
                cam.c_str(), cfg_.rig.c_str());
   }
 

@@ -102,8 +102,9 @@ size_t writeFrames(sim::RigSimulator& sim, double start, double duration, bool c
 void writeTrueRig(const sim::RigSimulator& sim, const std::string& path) {
   std::ofstream f(path);
   f << "# The true rig of a simulate_bag run (" << sim.options().profile << ", seed "
-    << sim.options().seed << "): world -> <cam>_link as rendered; depth_offset includes the\n"
-    << "# weak-return brightness bias at the rig's range (sim::RigSimulator::effectiveDepthOffset).\n"
+    << sim.options().seed << "): world -> <cam>_link as rendered;\n"
+    << "# depth_offset includes the weak-return brightness bias at the rig's range\n"
+    << "# (RigSimulator::effectiveDepthOffset).\n"
     << rigCalibrationToYaml(sim.trueRig());
   if (!f) fail("cannot write the true rig file '", path, "'");
 }
