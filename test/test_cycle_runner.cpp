@@ -3,6 +3,7 @@
 // max_pose_age), and the reset when time jumps back. Simulator frames, fixed seed 23.
 #include <gtest/gtest.h>
 
+#include <fstream>
 #include <map>
 #include <stdexcept>
 
@@ -10,6 +11,7 @@
 #include "drill_pipe_pose/core/cycle_runner.hpp"
 #include "drill_pipe_pose/core/errors.hpp"
 #include "drill_pipe_pose/core/estimator/track.hpp"
+#include "drill_pipe_pose/core/rig_calibration.hpp"
 #include "drill_pipe_pose/sim/rig_simulator.hpp"
 
 using namespace drill_pipe_pose;
@@ -133,6 +135,50 @@ TEST(CycleRunner, NamesTheCameraOfABadFrameAndOfAMissingTransform) {
   EXPECT_NE(by_camera.at(lost).message.find("nowhere"), std::string::npos)
       << by_camera.at(lost).message;
   EXPECT_EQ(outs[0].inputs.size(), fx.sim->numCameras() - 2);
+}
+
+// The node's `rig` parameter: each camera's depth calibration from the rig file goes into its
+// input, by camera name; a camera the file lacks gets none and is listed (for one warning).
+TEST(CycleRunner, TakesEachCamerasDepthCorrectionFromTheRigFile) {
+  Fixture fx;
+  RigCalibration rig = fx.sim->trueRig();
+  for (size_t i = 0; i < rig.cameras.size(); ++i) {
+    rig.cameras[i].depth_offset = 0.01 * static_cast<double>(i + 1);
+    rig.cameras[i].depth_scale = 1.0 + 0.001 * static_cast<double>(i + 1);
+  }
+  const std::string missing = rig.cameras.back().name;
+  rig.cameras.pop_back();
+  const std::string path = testing::TempDir() + "cycle_runner_rig.yaml";
+  {
+    std::ofstream f(path);
+    f << rigCalibrationToYaml(rig);
+  }
+  EstimatorNodeConfig rc = fx.config();
+  rc.rig = path;
+  CycleRunner runner(rc, &fx.tf);
+  EXPECT_EQ(runner.camerasWithoutDepthCorrection(), std::vector<std::string>{missing});
+  EXPECT_EQ(runner.depthCorrections().size(), rig.cameras.size());
+  const auto outs = fx.feed(runner, 0);
+  ASSERT_EQ(outs.size(), 1u);
+  ASSERT_EQ(outs[0].inputs.size(), fx.sim->numCameras());
+  for (const CameraInput& in : outs[0].inputs) {
+    SCOPED_TRACE(in.frame.camera);
+    const int i = rig.find(in.frame.camera);
+    if (i < 0) {
+      EXPECT_TRUE(in.depth_correction.isNone());
+      continue;
+    }
+    EXPECT_EQ(in.depth_correction.offset, rig.cameras[i].depth_offset);
+    EXPECT_EQ(in.depth_correction.scale, rig.cameras[i].depth_scale);
+  }
+  // A bad rig file stops the runner, naming the file.
+  rc.rig = "/nonexistent/rig.yaml";
+  try {
+    CycleRunner bad(rc, &fx.tf);
+    FAIL() << "accepted a missing rig file";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/rig.yaml"), std::string::npos) << e.what();
+  }
 }
 
 TEST(CycleRunner, TimeJumpingBackResetsPosesAndBuffers) {

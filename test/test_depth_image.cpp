@@ -54,6 +54,35 @@ TEST(DepthImage, InvalidPixelsAreNan) {
   EXPECT_FLOAT_EQ(mm.depthAt(0, 0), 1.234f);
 }
 
+// A camera's depth calibration (rig file) applies on read: z = (z_meas - offset) / scale, the
+// stored pixels unchanged; a correction that leaves no positive depth makes the pixel invalid.
+TEST(DepthImage, CorrectionAppliesOnRead) {
+  for (auto enc : {DepthEncoding::kU16Millimetres, DepthEncoding::kF32Metres}) {
+    auto img = DepthImage::allocate(3, 1, enc);
+    img.setDepth(0, 0, 6.125f);  // exact in both encodings
+    img.setDepth(1, 0, 0.02f);
+    DepthImage corrected = img;  // shares the pixels
+    corrected.setCorrection(DepthCorrection{0.0255, 1.019}, "cam1 depth");
+    EXPECT_NEAR(corrected.depthAt(0, 0), (6.125 - 0.0255) / 1.019, 1e-6);
+    EXPECT_FLOAT_EQ(img.depthAt(0, 0), 6.125f);          // the original reads as stored
+    EXPECT_TRUE(std::isnan(corrected.depthAt(1, 0)));    // 20 mm - 25.5 mm: nothing left
+    EXPECT_TRUE(std::isnan(corrected.depthAt(2, 0)));    // invalid stays invalid
+    corrected.setCorrection(DepthCorrection(), "cam1 depth");
+    EXPECT_EQ(corrected.depthAt(0, 0), img.depthAt(0, 0));  // none: bit-identical
+  }
+  auto img = DepthImage::allocate(1, 1, DepthEncoding::kF32Metres);
+  for (const DepthCorrection bad : {DepthCorrection{0.0, 0.0}, DepthCorrection{NAN, 1.0},
+                                    DepthCorrection{0.0, INFINITY}}) {
+    try {
+      img.setCorrection(bad, "cam4 depth");
+      FAIL() << "accepted offset " << bad.offset << " scale " << bad.scale;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("cam4 depth: depth correction"), std::string::npos)
+          << e.what();
+    }
+  }
+}
+
 TEST(DepthProjector, PlaneAtKnownDepthGivesExpectedPoints) {
   const auto cam = depthCamera();
   for (auto enc : {DepthEncoding::kU16Millimetres, DepthEncoding::kF32Metres}) {

@@ -48,6 +48,27 @@ TEST(RigCalibration, LoadsAndRoundTrips) {
   const RigCalibration back = parseRigCalibration(rigCalibrationToYaml(rig), "again");
   ASSERT_EQ(back.cameras.size(), 2u);
   EXPECT_TRUE(back.cameras[1].T_world_link.isApprox(rig.cameras[1].T_world_link, 1e-12));
+  // Without depth keys: no depth correction, and none written back.
+  EXPECT_EQ(rig.cameras[0].depth_offset, 0.0);
+  EXPECT_EQ(rig.cameras[0].depth_scale, 1.0);
+  EXPECT_EQ(rigCalibrationToYaml(rig).find("depth_"), std::string::npos);
+}
+
+TEST(RigCalibration, DepthOffsetAndScaleLoadAndRoundTrip) {
+  const std::string text =
+      replace(kValid, "    rotation: [0.0, 0.0, 0.0, 1.0]\n",
+              "    rotation: [0.0, 0.0, 0.0, 1.0]\n    depth_offset: -0.0255\n"
+              "    depth_scale: 1.019\n");
+  const RigCalibration rig = parseRigCalibration(text, "rig.yaml");
+  EXPECT_DOUBLE_EQ(rig.cameras[0].depth_offset, -0.0255);
+  EXPECT_DOUBLE_EQ(rig.cameras[0].depth_scale, 1.019);
+  EXPECT_EQ(rig.cameras[1].depth_offset, 0.0);  // cam2 has none
+  EXPECT_EQ(rig.cameras[1].depth_scale, 1.0);
+  const RigCalibration back = parseRigCalibration(rigCalibrationToYaml(rig), "again");
+  EXPECT_EQ(back.cameras[0].depth_offset, rig.cameras[0].depth_offset);  // 17 digits: exact
+  EXPECT_EQ(back.cameras[0].depth_scale, rig.cameras[0].depth_scale);
+  EXPECT_EQ(back.cameras[1].depth_offset, 0.0);
+  EXPECT_EQ(back.cameras[1].depth_scale, 1.0);
 }
 
 TEST(RigCalibrationBadInput, NonUnitQuaternionNamesCameraAndField) {
@@ -62,6 +83,24 @@ TEST(RigCalibrationBadInput, NonFiniteAndWrongLength) {
                  {"camera 'cam1'", "translation", "3 numbers", "2 elements"});
   expectRejected(replace(kValid, "[4.7, 0.2, 5.0]", "[4.7, abc, 5.0]"),
                  {"camera 'cam1'", "translation[1] = 'abc'"});
+}
+
+TEST(RigCalibrationBadInput, DepthCalibrationOutOfRangeOrNotANumber) {
+  const auto with = [](const std::string& lines) {
+    return replace(kValid, "    translation: [0.2, 5.0, 5.0]\n",
+                   "    translation: [0.2, 5.0, 5.0]\n" + lines);
+  };
+  expectRejected(with("    depth_offset: 25.5\n"),
+                 {"camera 'cam2'", "depth_offset", "25.5", "outside [-0.2, 0.2]"});
+  expectRejected(with("    depth_offset: -0.21\n"), {"camera 'cam2'", "depth_offset", "outside"});
+  expectRejected(with("    depth_offset: .nan\n"), {"camera 'cam2'", "depth_offset", "not finite"});
+  expectRejected(with("    depth_offset: 3mm\n"),
+                 {"camera 'cam2'", "depth_offset", "'3mm' is not a number"});
+  expectRejected(with("    depth_scale: 1.2\n"),
+                 {"camera 'cam2'", "depth_scale", "1.2", "outside [0.9, 1.1]"});
+  expectRejected(with("    depth_scale: 0\n"), {"camera 'cam2'", "depth_scale", "outside"});
+  expectRejected(with("    depth_scale: .inf\n"), {"camera 'cam2'", "depth_scale", "not finite"});
+  expectRejected(with("    depth_scale: [1.0]\n"), {"camera 'cam2'", "depth_scale", "not a number"});
 }
 
 TEST(RigCalibrationBadInput, DuplicateUnknownAndMissing) {

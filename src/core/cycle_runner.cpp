@@ -3,6 +3,7 @@
 #include <exception>
 
 #include "drill_pipe_pose/core/errors.hpp"
+#include "drill_pipe_pose/core/rig_calibration.hpp"
 
 namespace drill_pipe_pose {
 
@@ -19,6 +20,17 @@ CycleRunner::CycleRunner(const EstimatorNodeConfig& config, TransformSource* tra
       sync_(config.cameras, config.sync),
       transforms_(transforms) {
   if (!transforms_) fail("cycle runner: no transform source");
+  if (config_.rig.empty()) return;
+  const RigCalibration rig = loadRigCalibration(config_.rig);
+  for (const std::string& name : config_.cameras) {
+    const int i = rig.find(name);  // the rig file names cameras as the sensor nodes are named
+    if (i < 0) {
+      cameras_without_correction_.push_back(name);
+      continue;
+    }
+    const CameraCalibration& c = rig.cameras[i];
+    depth_corrections_[name] = DepthCorrection{c.depth_offset, c.depth_scale};
+  }
 }
 
 void CycleRunner::reset() {
@@ -56,6 +68,8 @@ std::optional<CameraInput> CycleRunner::assemble(const std::string& camera,
                                                  const FrameLoader& load,
                                                  std::vector<InputProblem>* problems) {
   CameraInput in;
+  const auto correction = depth_corrections_.find(camera);
+  if (correction != depth_corrections_.end()) in.depth_correction = correction->second;
   try {
     in.frame = load();
   } catch (const std::exception& e) {

@@ -41,6 +41,14 @@ void DepthImage::setDepth(uint32_t u, uint32_t v, float z) {
   }
 }
 
+void DepthImage::setCorrection(const DepthCorrection& c, const std::string& source) {
+  if (!std::isfinite(c.offset) || !std::isfinite(c.scale) || !(c.scale > 0.0))
+    fail(source, ": depth correction (offset ", c.offset, " m, scale ", c.scale,
+         ") is not finite or its scale not positive");
+  correction_offset = static_cast<float>(c.offset);
+  correction_gain = static_cast<float>(1.0 / c.scale);
+}
+
 void validateDepthImage(const DepthImage& image, const PinholeCamera& camera,
                         const std::string& source) {
   if (image.width != camera.imageWidth() || image.height != camera.imageHeight())

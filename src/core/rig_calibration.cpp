@@ -51,6 +51,22 @@ void rejectUnknownKeys(const YAML::Node& map, const std::set<std::string>& known
   }
 }
 
+/// An optional number: `fallback` when absent; finite and within [lo, hi] otherwise.
+double optionalNumber(const YAML::Node& node, double fallback, double lo, double hi,
+                      const std::string& where) {
+  if (!node) return fallback;
+  double x;
+  try {
+    x = node.as<double>();
+  } catch (const YAML::Exception&) {
+    fail(where, " = '", node.IsScalar() ? node.Scalar() : std::string("(not a number)"),
+         "' is not a number");
+  }
+  if (!std::isfinite(x)) fail(where, " = ", x, " is not finite");
+  if (x < lo || x > hi) fail(where, " = ", x, " is outside [", lo, ", ", hi, "]");
+  return x;
+}
+
 }  // namespace
 
 RigCalibration parseRigCalibration(const std::string& text, const std::string& source) {
@@ -80,7 +96,8 @@ RigCalibration parseRigCalibration(const std::string& text, const std::string& s
     if (!std::regex_match(cal.name, name_re))
       fail(where, ": name must match [A-Za-z][A-Za-z0-9_]* (it prefixes topics and frames)");
     if (rig.find(cal.name) >= 0) fail(where, ": duplicate camera name");
-    rejectUnknownKeys(c, {"name", "translation", "rotation", "sensor"}, where);
+    rejectUnknownKeys(
+        c, {"name", "translation", "rotation", "sensor", "depth_offset", "depth_scale"}, where);
     const auto t = numbers(c["translation"], 3, where + " translation");
     const auto q = numbers(c["rotation"], 4, where + " rotation (x y z w)");
     const double qn = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
@@ -90,6 +107,10 @@ RigCalibration parseRigCalibration(const std::string& text, const std::string& s
     cal.T_world_link.linear() = quat.toRotationMatrix();
     cal.T_world_link.translation() = Eigen::Vector3d(t[0], t[1], t[2]);
     if (c["sensor"]) cal.sensor = c["sensor"].as<std::string>();
+    cal.depth_offset = optionalNumber(c["depth_offset"], 0.0, -kMaxDepthOffset, kMaxDepthOffset,
+                                      where + " depth_offset [m]");
+    cal.depth_scale = optionalNumber(c["depth_scale"], 1.0, kMinDepthScale, kMaxDepthScale,
+                                     where + " depth_scale");
     rig.cameras.push_back(cal);
   }
   return rig;
@@ -113,6 +134,9 @@ std::string rigCalibrationToYaml(const RigCalibration& rig) {
     s << "  - name: " << c.name << "\n    sensor: " << c.sensor << "\n    translation: [" << t.x()
       << ", " << t.y() << ", " << t.z() << "]\n    rotation: [" << q.x() << ", " << q.y() << ", "
       << q.z() << ", " << q.w() << "]\n";
+    // The depth calibration only where there is one: a plain rig file stays as it was.
+    if (c.depth_offset != 0.0) s << "    depth_offset: " << c.depth_offset << "\n";
+    if (c.depth_scale != 1.0) s << "    depth_scale: " << c.depth_scale << "\n";
   }
   return s.str();
 }

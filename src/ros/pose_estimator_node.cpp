@@ -74,9 +74,26 @@ class PoseEstimatorNode {
         cfg_.sync.window * 1e3, cfg_.sync.max_wait * 1e3,
         cfg_.sync.camera_timeout, cfg_.max_pose_age);
     ROS_INFO("pose_estimator: %s", describeEstimatorConfig(cfg_.estimator).c_str());
+    logDepthCorrections();
   }
 
  private:
+  /// Once at start: each camera's depth correction from the rig file, and the cameras it lacks.
+  void logDepthCorrections() const {
+    if (cfg_.rig.empty()) return;
+    std::string list;
+    char buf[128];
+    for (const auto& [cam, c] : runner_.depthCorrections()) {
+      std::snprintf(buf, sizeof buf, " %s %+.1f mm x %.4f", cam.c_str(), c.offset * 1e3, c.scale);
+      list += buf;
+    }
+    ROS_INFO("pose_estimator: depth corrections from rig file '%s':%s", cfg_.rig.c_str(),
+             list.empty() ? " none" : list.c_str());
+    for (const auto& cam : runner_.camerasWithoutDepthCorrection())
+      ROS_WARN("pose_estimator: camera '%s' is not in the rig file '%s': depth not corrected",
+               cam.c_str(), cfg_.rig.c_str());
+  }
+
   struct Counters {
     uint64_t bad_input = 0, tf_failures = 0, received_at_last_diag = 0;
   };

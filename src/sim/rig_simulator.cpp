@@ -81,6 +81,7 @@ bool projectBounds(const Eigen::AlignedBox3d& box_world, const Eigen::Isometry3d
 /// Per-camera state: geometry, seeded setup, cached static background and work buffers.
 struct RigSimulator::Camera {
   std::string name;
+  std::string sensor_key;  ///< the rig file's `sensor`
   SensorIntrinsics sensor;
   Eigen::Isometry3d T_world_link_true, T_world_link_pub, T_world_depth, T_world_color;
   CameraInfoData color_info, depth_info;
@@ -132,6 +133,7 @@ RigSimulator::RigSimulator(const RigCalibration& rig, const SceneConfig& scene,
              "\" needs SimulatorOptions::sensor_config_dir (only kinect_v2 is built in)");
     }
     cam->sensor = sensors[cc.sensor];
+    cam->sensor_key = cc.sensor;
     cam->T_world_link_true = cc.T_world_link;
     // Seeded per-camera setup; all numbers drawn in a fixed order whatever the switches.
     Rng rng(streamSeed(opt.seed, kStreamCameraSetup, i));
@@ -197,6 +199,24 @@ double RigSimulator::depthOffset(size_t i) const {
 }
 double RigSimulator::depthScale(size_t i) const {
   return cams_.at(i)->depth_scale;
+}
+double RigSimulator::effectiveDepthOffset(size_t i) const {
+  // z_meas = (z + noise + bias) * scale + offset: the bias enters scaled.
+  return depthOffset(i) + depthScale(i) * static_cast<double>(brightnessBias(fx_, 0.0f));
+}
+RigCalibration RigSimulator::trueRig() const {
+  RigCalibration rig;
+  rig.world_frame = world_frame_;
+  for (size_t i = 0; i < cams_.size(); ++i) {
+    CameraCalibration c;
+    c.name = cams_[i]->name;
+    c.T_world_link = trueT_world_link(i);
+    c.sensor = cams_[i]->sensor_key;
+    c.depth_offset = effectiveDepthOffset(i);
+    c.depth_scale = depthScale(i);
+    rig.cameras.push_back(c);
+  }
+  return rig;
 }
 const SensorIntrinsics& RigSimulator::sensor(size_t i) const {
   return cams_.at(i)->sensor;

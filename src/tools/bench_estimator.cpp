@@ -6,11 +6,12 @@
 //
 //   rosrun drill_pipe_pose bench_estimator BAG [--config FILE] [--param KEY=VALUE]...
 //       [--method ours|thesis_baseline] [--max-cycles N] [--csv errors.csv]
-//       [--cycles-csv cycles.csv] [--label NAME] [--skip-camera CAM] [shortcuts, see --help]
+//       [--cycles-csv cycles.csv] [--label NAME] [--skip-camera CAM] [--rig RIG_FILE]
+//       [shortcuts, see --help]
 //
 // Configuration, in this order: the node's defaults; --config (the YAML file the node loads,
 // e.g. config/estimator_thesis_lab.yaml; its cameras are replaced by the bag's); the shortcut
-// options (--work-zone, --threads, --no-temporal, ...); then every --param, any key of the
+// options (--work-zone, --threads, --no-temporal, --rig ...); then every --param, any key of the
 // pose_estimator parameter table (docs/parameters.md), e.g. --param carving/vote_fraction=0.6.
 // "Valid" is the node's: a pose no older than max_pose_age (fresh or the last one repeated).
 // Cycles are formed as the node forms them, each frame arriving 10 ms after its capture stamp.
@@ -140,6 +141,9 @@ BenchOptions parseArgs(int argc, char** argv) {
          "[m] work zone's min and max corner (--param work_zone/min=[x0,y0,z0] ...)")
       ->expected(6)
       ->option_text("x0 y0 z0 x1 y1 z1");
+  addShortcut(app, o, "--rig", "rig",
+              "rig file whose depth_offset / depth_scale correct each camera's depth (e.g. "
+              "simulate_bag --true-rig's)");
   addShortcut(app, o, "--threads", "threads", "threads of the estimator");
   addShortcutFlag(app, o, "--no-temporal", "temporal/enabled", "false", "no temporal filter");
   addShortcutFlag(app, o, "--no-tracking", "tracking/enabled", "false",
@@ -315,6 +319,9 @@ int main(int argc, char** argv) {
     if (bc.cameras.empty()) fail("bag '", opt.bag_path, "' has no SensorFrames");
     const EstimatorNodeConfig cfg = makeConfig(opt, bc.cameras);
     CycleRunner runner(cfg, &bc.tf);
+    for (const auto& cam : runner.camerasWithoutDepthCorrection())
+      std::cerr << "bench_estimator: camera " << cam << " is not in the rig file '" << cfg.rig
+                << "': its depth is not corrected\n";
     Tally t;
     if (!opt.cycles_csv_path.empty()) {
       t.cycles_csv.open(opt.cycles_csv_path);

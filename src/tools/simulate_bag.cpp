@@ -3,7 +3,7 @@
 //   rosrun drill_pipe_pose simulate_bag --scene config/scenes/thesis_vertical.yaml --out X.bag
 //       [--rig config/rigs/thesis_lab.yaml] [--duration 10] [--start 0] [--profile NAME]
 //       [--seed 1] [--no-detection] [--color] [--crop] [--sensors config/sensors] [--quiet]
-//       [--effect-off EFFECT]... [--model fitted|before-fit|additive]
+//       [--effect-off EFFECT]... [--model fitted|before-fit|additive] [--true-rig FILE]
 //
 // --crop sends each SensorFrame's depth cropped to its boxes' frustum (roi), as a bandwidth-saving
 // sensor node does: bags are ~100x smaller and the estimator's poses are the same.
@@ -17,7 +17,10 @@
 // amplitude effects, lateral noise on every pixel; bit-identical to that model's frames), or
 // additive (the fitted weak-return noise added to the literature's range law,
 // sqrt(sigma_z^2 + (C / a)^2), instead of the larger of the two: the other reading of the fit
-// beyond its 1.5 m of data).
+// beyond its 1.5 m of data). --true-rig writes the rig file of the truth (RigSimulator::trueRig):
+// the rendered extrinsics and each camera's depth_scale and depth_offset, the offset including the
+// weak-return brightness bias at the rig's range (what a depth calibration there would find), for
+// scoring a calibration or running the estimator (parameter rig) with perfect corrections.
 // Exit status 0; 1 on bad input files or an unwritable bag; 2 on a bad command line.
 #include <drill_pipe_pose/SensorFrame.h>
 #include <ros/package.h>
@@ -26,10 +29,12 @@
 
 #include <chrono>
 #include <cstdio>
+#include <fstream>
 #include <iostream>
 
 #include "drill_pipe_pose/core/depth_crop.hpp"
 #include "drill_pipe_pose/core/errors.hpp"
+#include "drill_pipe_pose/core/rig_calibration.hpp"
 #include "drill_pipe_pose/ros/conversions.hpp"
 #include "drill_pipe_pose/ros/sim_messages.hpp"
 #include "cli.hpp"
@@ -61,11 +66,54 @@ void writeStaticTf(const sim::RigSimulator& sim, double start, rosbag::Bag* bag)
   bag->write("/tf_static", fromNs(sim.stampNs(start)), tf_static, latched);
 }
 
+/// Renders every capture in [start, start + duration) into the bag (SensorFrames, cropped with
+/// `crop`; the colour topics with the simulator's colour option; ground truth), with a progress
+/// bar unless `quiet`. Returns the frames written.
+size_t writeFrames(sim::RigSimulator& sim, double start, double duration, bool crop, bool quiet,
+                   rosbag::Bag* bag) {
+  const auto captures = sim.captures(start, start + duration);
+  const auto wall0 = std::chrono::steady_clock::now();
+  size_t done = 0;
+  for (const auto& c : captures) {
+    sim::RigSimulator::Frame frame = sim.render(c.camera, c.t, c.frame_index);
+    const ros::Time stamp = fromNs(frame.sensor_frame.stamp_ns);
+    const std::string& cam = sim.cameraName(c.camera);
+    const SensorFrameData& sf =
+        crop ? cropDepthToBoxes(frame.sensor_frame, sim.T_link_depth(c.camera))
+             : frame.sensor_frame;
+    bag->write("/" + conventions::sensorFrameTopic(cam), stamp, toMsg(sf));
+    if (sim.options().color) {
+      const KinectTopics k = simKinectTopics(sim, c.camera, frame);
+      for (const auto& [topic, img] : k.images) bag->write("/" + topic, stamp, img);
+      for (const auto& [topic, info] : k.infos) bag->write("/" + topic, stamp, info);
+    }
+    for (const auto& [topic, pose] : simGroundTruth(sim, c.t)) bag->write(topic, stamp, pose);
+    if (++done % 30 == 0 || done == captures.size()) {
+      const double wall =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+      progress(c.t - start, duration, done / (double)sim.numCameras() / std::max(wall, 1e-9),
+               quiet);
+    }
+  }
+  return done;
+}
+
+/// Writes the simulated rig's truth as a rig file (RigSimulator::trueRig).
+void writeTrueRig(const sim::RigSimulator& sim, const std::string& path) {
+  std::ofstream f(path);
+  f << "# The true rig of a simulate_bag run (" << sim.options().profile << ", seed "
+    << sim.options().seed << "): world -> <cam>_link as rendered;\n"
+    << "# depth_offset includes the weak-return brightness bias at the rig's range\n"
+    << "# (RigSimulator::effectiveDepthOffset).\n"
+    << rigCalibrationToYaml(sim.trueRig());
+  if (!f) fail("cannot write the true rig file '", path, "'");
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   const std::string pkg = ros::package::getPath("drill_pipe_pose");
-  std::string scene, out, rig = pkg + "/config/rigs/thesis_lab.yaml";
+  std::string scene, out, rig = pkg + "/config/rigs/thesis_lab.yaml", true_rig;
   double duration = 10.0, start = 0.0;
   bool quiet = false, crop = false;
   std::vector<std::string> effects_off;
@@ -84,6 +132,12 @@ int main(int argc, char** argv) {
   app.add_option("--rig", rig, "rig calibration file (YAML)")
       ->capture_default_str()
       ->check(CLI::ExistingFile);
+  app.add_option("--true-rig", true_rig,
+                 "also write the rig file of the truth: the true world -> <cam>_link and each "
+                 "camera's true depth_scale and depth_offset, the offset including the weak-return "
+                 "brightness bias every surface at the rig's range reads (which a depth "
+                 "calibration there absorbs; +28.5 mm in kinect_v2_uncalibrated). Give it to the "
+                 "estimator (rig) for perfect depth corrections, or score a calibration with it");
   app.add_option("--duration", duration, "[s] simulated time to render")
       ->capture_default_str()
       ->check(CLI::Range(1e-3, 86400.0));
@@ -143,31 +197,10 @@ int main(int argc, char** argv) {
               << "\n";
 
     writeStaticTf(sim, start, &bag);
+    if (!true_rig.empty()) writeTrueRig(sim, true_rig);
 
-    const auto captures = sim.captures(start, start + duration);
     const auto wall0 = std::chrono::steady_clock::now();
-    size_t done = 0;
-    for (const auto& c : captures) {
-      sim::RigSimulator::Frame frame = sim.render(c.camera, c.t, c.frame_index);
-      const ros::Time stamp = fromNs(frame.sensor_frame.stamp_ns);
-      const std::string& cam = sim.cameraName(c.camera);
-      const SensorFrameData& sf =
-          crop ? cropDepthToBoxes(frame.sensor_frame, sim.T_link_depth(c.camera))
-               : frame.sensor_frame;
-      bag.write("/" + conventions::sensorFrameTopic(cam), stamp, toMsg(sf));
-      if (opt.color) {
-        const KinectTopics k = simKinectTopics(sim, c.camera, frame);
-        for (const auto& [topic, img] : k.images) bag.write("/" + topic, stamp, img);
-        for (const auto& [topic, info] : k.infos) bag.write("/" + topic, stamp, info);
-      }
-      for (const auto& [topic, pose] : simGroundTruth(sim, c.t)) bag.write(topic, stamp, pose);
-      if (++done % 30 == 0 || done == captures.size()) {
-        const double wall =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
-        progress(c.t - start, duration, done / (double)sim.numCameras() / std::max(wall, 1e-9),
-                 quiet);
-      }
-    }
+    const size_t frames = writeFrames(sim, start, duration, crop, quiet, &bag);
     bag.close();
     const double wall =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
@@ -175,8 +208,7 @@ int main(int argc, char** argv) {
     std::printf(
         "simulate_bag: wrote %zu frames (%.1f s of %zu cameras) in %.1f s: %.2f six-camera "
         "frames per second\n",
-        captures.size(), duration, sim.numCameras(), wall,
-        captures.size() / 6.0 / std::max(wall, 1e-9));
+        frames, duration, sim.numCameras(), wall, frames / 6.0 / std::max(wall, 1e-9));
   } catch (const InputError& e) {
     std::cerr << "\nsimulate_bag: " << e.what() << "\n";
     return 1;

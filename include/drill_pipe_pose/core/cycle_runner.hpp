@@ -74,7 +74,8 @@ struct AddResult {
 class CycleRunner {
  public:
   /// The node's configuration (the same for node and bench: cameras, world_frame, max_pose_age,
-  /// sync/..., estimator); validates it (throws InputError naming the key).
+  /// sync/..., rig, estimator); validates it and loads the rig file when set (throws InputError
+  /// naming the key, or the rig file and its field).
   CycleRunner(const EstimatorNodeConfig& config, TransformSource* transforms);
 
   /// A frame of `camera` captured at stamp_ns [ns] arrived at `arrival` [s, arrival clock].
@@ -86,6 +87,15 @@ class CycleRunner {
 
   const FrameSynchronizer& sync() const { return sync_; }
   const EstimatorNodeConfig& config() const { return config_; }
+  /// Each camera's depth calibration from config().rig (absent: none).
+  const std::map<std::string, DepthCorrection>& depthCorrections() const {
+    return depth_corrections_;
+  }
+  /// The cameras of config().cameras that config().rig (when set) does not list: their depth is
+  /// read uncorrected. For the caller to warn about, once.
+  const std::vector<std::string>& camerasWithoutDepthCorrection() const {
+    return cameras_without_correction_;
+  }
 
  private:
   struct LastPose {
@@ -105,6 +115,8 @@ class CycleRunner {
   TransformSource* transforms_;
   std::map<uint64_t, std::pair<std::string, FrameLoader>> store_;
   std::array<std::optional<LastPose>, kNumEnds> last_;
+  std::map<std::string, DepthCorrection> depth_corrections_;
+  std::vector<std::string> cameras_without_correction_;
   uint64_t next_id_ = 0;
   int64_t last_cycle_stamp_ns_ = 0;
 };

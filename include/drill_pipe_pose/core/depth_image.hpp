@@ -27,6 +27,14 @@ inline size_t bytesPerPixel(DepthEncoding e) {
   return e == DepthEncoding::kU16Millimetres ? 2 : 4;
 }
 
+/// A camera's depth calibration (rig file keys depth_offset, depth_scale; docs/conventions.md):
+/// the camera reads z_meas = scale * z_true + offset along its optical axis.
+struct DepthCorrection {
+  double offset = 0.0;  ///< [m]
+  double scale = 1.0;
+  bool isNone() const { return offset == 0.0 && scale == 1.0; }
+};
+
 /// A depth image (the fields of sensor_msgs/Image the core needs). The pixel data is shared, not
 /// copied: the ROS layer points `data` into the message and keeps the message alive.
 struct DepthImage {
@@ -37,26 +45,41 @@ struct DepthImage {
   std::shared_ptr<const uint8_t> data;
   size_t size = 0;  ///< [bytes] available behind data
 
-  /// Depth [m] at pixel (u, v), or NaN when invalid (0, NaN, inf or negative). No bounds check.
+  /// The depth correction every read applies (setCorrection): z = (z_meas - offset) * gain.
+  /// Without one (offset 0, gain 1) a read returns the stored value exactly.
+  float correction_offset = 0.0f;  ///< [m]
+  float correction_gain = 1.0f;    ///< 1 / DepthCorrection::scale
+
+  /// Depth [m] at pixel (u, v), corrected (setCorrection), or NaN when invalid (0, NaN, inf or
+  /// negative, before or after the correction). No bounds check.
   float depthAt(uint32_t u, uint32_t v) const {
     const uint8_t* row = data.get() + static_cast<size_t>(v) * step;
+    float z;
     if (encoding == DepthEncoding::kU16Millimetres) {
       uint16_t mm;
       std::memcpy(&mm, row + 2 * u, 2);
-      return mm == 0 ? std::numeric_limits<float>::quiet_NaN() : mm * 0.001f;
+      if (mm == 0) return std::numeric_limits<float>::quiet_NaN();
+      z = mm * 0.001f;
+    } else {
+      std::memcpy(&z, row + 4 * u, 4);
+      if (!(z > 0.0f && z < std::numeric_limits<float>::infinity()))
+        return std::numeric_limits<float>::quiet_NaN();
     }
-    float m;
-    std::memcpy(&m, row + 4 * u, 4);
-    return (m > 0.0f && m < std::numeric_limits<float>::infinity())
-               ? m
-               : std::numeric_limits<float>::quiet_NaN();
+    z = (z - correction_offset) * correction_gain;
+    return z > 0.0f ? z : std::numeric_limits<float>::quiet_NaN();
   }
+
+  /// Reads from now on return the true depth of a camera with this calibration (the pixels are
+  /// not rewritten: they may be shared). Throws InputError naming `source` when the correction
+  /// is not finite or its scale not positive.
+  void setCorrection(const DepthCorrection& c, const std::string& source);
 
   /// A new zero-filled (all invalid) image owning its data.
   static DepthImage allocate(uint32_t width, uint32_t height, DepthEncoding encoding);
   /// Writable access for images made with allocate() (simulator, tests).
   uint8_t* mutableData() { return const_cast<uint8_t*>(data.get()); }
-  /// Writes depth z [m] at (u, v), rounding to 1 mm for 16UC1; NaN/<=0 writes "invalid".
+  /// Writes depth z [m] at (u, v), rounding to 1 mm for 16UC1; NaN/<=0 writes "invalid". The
+  /// stored value: no correction applies.
   void setDepth(uint32_t u, uint32_t v, float z);
 };
 

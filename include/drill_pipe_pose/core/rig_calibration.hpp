@@ -9,7 +9,10 @@
 //       translation: [4.7, 0.2, 5.0]
 //       rotation: [0.0, 0.0, 0.0, 1.0]   # x y z w, unit length (tolerance 1e-3; normalised)
 //
-// Optional per camera, for the simulator only: `sensor: kinect_v2` (sensor model name).
+// Optional per camera: `sensor: kinect_v2` (the simulator's sensor model name), and the camera's
+// depth calibration `depth_offset` [m] (default 0) and `depth_scale` (default 1): its depth image
+// reads z_meas = depth_scale * z_true + depth_offset along the depth camera's optical axis, and
+// the pose estimator (parameter `rig`) recovers z_true = (z_meas - depth_offset) / depth_scale.
 
 #include <Eigen/Geometry>
 #include <string>
@@ -21,7 +24,14 @@ struct CameraCalibration {
   std::string name;
   Eigen::Isometry3d T_world_link = Eigen::Isometry3d::Identity();
   std::string sensor = "kinect_v2";
+  double depth_offset = 0.0;  ///< [m] |.| <= kMaxDepthOffset
+  double depth_scale = 1.0;   ///< within kDepthScaleRange
 };
+
+/// Bounds of the depth calibration (a Kinect v2 is off by tens of mm and about 2 %; more is a
+/// mistake in the file, e.g. millimetres for metres).
+constexpr double kMaxDepthOffset = 0.2;  ///< [m]
+constexpr double kMinDepthScale = 0.9, kMaxDepthScale = 1.1;
 
 struct RigCalibration {
   std::string world_frame = "world";
@@ -31,7 +41,8 @@ struct RigCalibration {
 };
 
 /// Loads and validates a rig file. Throws InputError naming the file, the camera and the field
-/// (unit quaternion, finite numbers, 3 / 4 elements, unique names, at least one camera).
+/// (unit quaternion, finite numbers, 3 / 4 elements, unique names, at least one camera, the depth
+/// calibration within its bounds).
 RigCalibration loadRigCalibration(const std::string& path);
 /// The same from YAML text; `source` names it in errors.
 RigCalibration parseRigCalibration(const std::string& yaml_text, const std::string& source);

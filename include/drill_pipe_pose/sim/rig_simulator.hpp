@@ -79,6 +79,15 @@ class RigSimulator {
   double depthOffset(size_t i) const;
   /// Per-camera depth scale (depth x this before the offset; 1 when the effect is off).
   double depthScale(size_t i) const;
+  /// The depth offset [m] a depth calibration of camera i at the rig's range finds: depthOffset
+  /// plus the scaled weak-return brightness bias, sim::brightnessBias(effects(), 0), which every
+  /// surface at 5-7 m reads (constant there: their amplitudes lie below its floor; about
+  /// +28.5 mm in kinect_v2_uncalibrated, whose brightness_bias_reference is 0). The camera reads
+  /// z_meas = depthScale * z_true + effectiveDepthOffset there.
+  double effectiveDepthOffset(size_t i) const;
+  /// The rig file of the truth: world -> <cam>_link as rendered (trueT_world_link), each
+  /// camera's sensor, depthScale and effectiveDepthOffset (core rig_calibration.hpp).
+  RigCalibration trueRig() const;
 
   /// Capture times [s] in [t0, t1) of all cameras, sorted: (time, camera).
   std::vector<std::pair<double, size_t>> captureSchedule(double t0, double t1) const;

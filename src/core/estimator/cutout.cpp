@@ -25,7 +25,8 @@ bool insideBox(const DetectionBox& b, const Eigen::Vector2d& uv, double margin) 
 }  // namespace
 
 CycleCamera makeCycleCamera(const SensorFrameData& frame, const Eigen::Isometry3d& T_world_depth,
-                            const Eigen::Isometry3d& T_color_depth, float min_confidence) {
+                            const Eigen::Isometry3d& T_color_depth, float min_confidence,
+                            const DepthCorrection& correction) {
   CycleCamera cam;
   cam.name = frame.camera;
   const std::string& n = frame.camera;
@@ -33,7 +34,10 @@ CycleCamera makeCycleCamera(const SensorFrameData& frame, const Eigen::Isometry3
   cam.color = PinholeCamera::fromCameraInfo(frame.color_info, n + " color_info");
   if (frame.depth.width == 0 || frame.depth.height == 0) fail(n, " depth: the image is empty");
   validateDepthImage(frame.depth, cam.depth, n + " depth");
-  cam.image = frame.depth;
+  cam.image = frame.depth;  // shares the pixels
+  // Corrected where read (DepthImage::depthAt): the cut-out, carving's occlusion test and the
+  // seen-through pixels all see the true depth, and no pixel is copied.
+  cam.image.setCorrection(correction, n + " depth");
   if (!finiteIsometry(T_world_depth)) fail(n, ": T_world_depth is not finite");
   if (!finiteIsometry(T_color_depth)) fail(n, ": T_color_depth is not finite");
   cam.T_world_depth = T_world_depth;

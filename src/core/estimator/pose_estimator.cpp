@@ -47,7 +47,8 @@ std::vector<CycleCamera> assembleCameras(const std::vector<CameraInput>& inputs,
   for (const CameraInput& in : inputs) {
     try {
       cams.push_back(
-          makeCycleCamera(in.frame, in.T_world_depth, in.T_color_depth, min_confidence));
+          makeCycleCamera(in.frame, in.T_world_depth, in.T_color_depth, min_confidence,
+                          in.depth_correction));
       result->cameras_used.push_back(in.frame.camera);
     } catch (const InputError& e) {
       result->camera_errors.push_back(e.what());

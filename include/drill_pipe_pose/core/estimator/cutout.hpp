@@ -42,8 +42,10 @@ struct CycleCamera {
 };
 
 /// Builds a CycleCamera from one input; throws InputError naming the camera and the field.
+/// `correction` (the camera's depth calibration) applies to every depth read from its image.
 CycleCamera makeCycleCamera(const SensorFrameData& frame, const Eigen::Isometry3d& T_world_depth,
-                            const Eigen::Isometry3d& T_color_depth, float min_confidence);
+                            const Eigen::Isometry3d& T_color_depth, float min_confidence,
+                            const DepthCorrection& correction = DepthCorrection());
 
 /// The depth-pixel rectangle [u0, u1) x [v0, v1) (delivered depth image) that can register into
 /// colour box `box` grown by margin_px for depths in [min_range, max_range]: the box's corner

@@ -29,6 +29,9 @@ struct EstimatorNodeConfig {
   double max_pose_age = 0.2;  ///< [s] an end not seen for longer is reported invalid
   double tf_timeout = 0.0;    ///< [s] wait for TF per lookup (0: only what is buffered)
   double debug_frustum_length = 1.5;  ///< [m] drawn length of the cameras' frustums (debug/models)
+  /// Rig file (docs/conventions.md "Rig file") whose per-camera depth_offset / depth_scale
+  /// correct each camera's depth; empty: no correction.
+  std::string rig;
   FrameSyncConfig sync;
   EstimatorConfig estimator;
 };

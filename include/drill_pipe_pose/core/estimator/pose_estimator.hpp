@@ -25,6 +25,9 @@ struct CameraInput {
   Eigen::Isometry3d T_world_depth = Eigen::Isometry3d::Identity();
   /// Colour optical <- depth optical (p_color = T_color_depth * p_depth), from TF.
   Eigen::Isometry3d T_color_depth = Eigen::Isometry3d::Identity();
+  /// The camera's depth calibration (rig file: depth_offset, depth_scale): every depth the
+  /// estimator reads is corrected by it. Default: none.
+  DepthCorrection depth_correction;
 };
 
 /// The estimate of one pipe end in one cycle.
