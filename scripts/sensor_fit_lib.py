@@ -94,7 +94,6 @@ def fit_sensor_model(folder, res, board=None):
     f = {"kappa": kappa, "bright_law": bright_law, "dark_law": dark_law, "ir_frames": len(rows)}
 
     # Noise: sigma^2 = floor^2 + (C / A)^2, floor = the bright squares' spread.
-    bsd = np.array([r["bright_sd"] for r, _, _ in rows])
     f["noise_floor_mm"] = float(np.nanmedian([r["bright_sd"] for r in res["results"]]))
     dsd = np.array([r["dark_sd"] for r, _, _ in rows])
     Ad = np.array([d for _, _, d in rows])
@@ -104,7 +103,6 @@ def fit_sensor_model(folder, res, board=None):
     f["noise_c_spread"] = tuple(float(x) for x in np.percentile(excess * Ad, [10, 90]))
     f["noise_power"] = float(np.polyfit(np.log(Ad), np.log(excess), 1)[0])
     f["noise_c_sim"] = f["noise_c_dn"] / kappa
-    del bsd
 
     # Brightness bias: dark - bright = B (A_dark^-p - A_bright^-p), no intercept; the power p
     # from BIAS_POWERS by the least rms (the bias stays near 0 above ~2000 DN and rises steeply

@@ -29,9 +29,9 @@ struct SequenceStats {
 };
 
 /// The thesis-lab simulator on a scene (simulated detector).
-std::unique_ptr<sim::RigSimulator> makeSimulator(const std::string& scene, uint32_t seed,
-                                                 const std::string& profile = "kinect_v2_calibrated",
-                                                 bool before_fit = false) {
+std::unique_ptr<sim::RigSimulator> makeSimulator(
+    const std::string& scene, uint32_t seed, const std::string& profile = "kinect_v2_calibrated",
+    bool before_fit = false) {
   const std::string dir = DRILL_PIPE_POSE_SOURCE_DIR;
   sim::SimulatorOptions opt;
   opt.profile = profile;

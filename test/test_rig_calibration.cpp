@@ -100,7 +100,8 @@ TEST(RigCalibrationBadInput, DepthCalibrationOutOfRangeOrNotANumber) {
                  {"camera 'cam2'", "depth_scale", "1.2", "outside [0.9, 1.1]"});
   expectRejected(with("    depth_scale: 0\n"), {"camera 'cam2'", "depth_scale", "outside"});
   expectRejected(with("    depth_scale: .inf\n"), {"camera 'cam2'", "depth_scale", "not finite"});
-  expectRejected(with("    depth_scale: [1.0]\n"), {"camera 'cam2'", "depth_scale", "not a number"});
+  expectRejected(with("    depth_scale: [1.0]\n"),
+                 {"camera 'cam2'", "depth_scale", "not a number"});
 }
 
 TEST(RigCalibrationBadInput, DuplicateUnknownAndMissing) {

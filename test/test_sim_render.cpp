@@ -743,8 +743,8 @@ TEST(SimDepthEffects, BiasSaturationAndDepthScale) {
   EXPECT_NEAR(patchStats(out, n).mean - 2.0,
               fx.brightness_bias_coeff * std::pow(0.025, -fx.brightness_bias_power), 1e-5);
   // Below the lowest fitted amplitude the bias is held, not extrapolated.
-  EXPECT_FLOAT_EQ(brightnessBias(fx, 0.001f), brightnessBias(fx, 0.5f * static_cast<float>(
-                                                                 fx.brightness_bias_min_amplitude)));
+  const float half_min = 0.5f * static_cast<float>(fx.brightness_bias_min_amplitude);
+  EXPECT_FLOAT_EQ(brightnessBias(fx, 0.001f), brightnessBias(fx, half_min));
   // Calibrated at the reference amplitude: no bias there.
   fx.brightness_bias_reference = 0.025;
   EXPECT_NEAR(brightnessBias(fx, 0.025f), 0.0, 1e-7);

@@ -50,20 +50,20 @@ struct SensorEffects {
   /// (the model before the fit).
   bool amplitude_by_range = true;
   double max_incidence_deg = 84.0;  ///< incidence angles are clamped here in the noise models
-  // --- effects of the returned amplitude a = reflectivity cos(theta) / z^2 [1/m^2], fitted to
-  // a real Kinect v2 imaging a chessboard at 0.5-1.5 m (`scripts/sensor_check DATA --fit`,
-  // docs/sensor_check.md). The fit is in the IR image's digital numbers (DN); the simulator's
-  // amplitude is tied to them by white paper = reflectivity 0.8, i.e. A_DN = 40260 a.
+  // --- effects of the returned amplitude a = reflectivity cos(theta) / range^2 [1/m^2],
+  // fitted to a real Kinect v2 imaging a chessboard at 0.5-1.5 m (`scripts/sensor_check DATA
+  // --fit`, docs/sensor_check.md). The fit is in the IR image's digital numbers (DN); the
+  // simulator's amplitude is tied to them by white paper = reflectivity 0.8: A_DN = 40260 a.
   /// Noise of a weak return: sigma = max(sigma_z, sqrt(floor^2 + (C / a)^2)). Fitted: the noise
   /// of the dark squares grows as 1/A (free power law: A^-1.01), the bright squares' spread is
   /// the floor. Beyond the data (a < 0.02, i.e. any surface at 5-7 m) the 1/a term is
   /// extrapolated; sigma_z (the paper's fit, measured on its own target) stays the lower bound,
   /// so it only adds where a surface is darker than that target would be at its range.
   bool amplitude_noise = true;
-  double amplitude_noise_floor = kinect_v2::AmplitudeModel{}.noise_floor;  ///< [m] 1.49 mm less
-  ///< quantisation (the bright squares' spread)
-  double amplitude_noise_coeff = kinect_v2::AmplitudeModel{}.noise_coeff;  ///< [m m^-2] C:
-  ///< 5622 DN mm / 40260
+  /// [m] the bright squares' spread, 1.49 mm, less quantisation
+  double amplitude_noise_floor = kinect_v2::AmplitudeModel{}.noise_floor;
+  /// [m m^-2] C: 5622 DN mm / 40260
+  double amplitude_noise_coeff = kinect_v2::AmplitudeModel{}.noise_coeff;
   /// The other reading beyond the data: sigma = sqrt(sigma_z^2 + (C / a)^2), the weak-return
   /// term added to the range law (which then counts range twice); scripts/bench compares both.
   bool amplitude_noise_additive = false;

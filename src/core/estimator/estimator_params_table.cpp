@@ -281,8 +281,8 @@ ParamTable<EstimatorNodeConfig> makeNodeTable() {
         "an end not seen for longer is published invalid, never silently repeated"),
       P("tf_timeout", tf_timeout, "s", atLeast(0), "wait per TF lookup (0: what is buffered)"),
       P("rig", rig, "", anyValue(),
-        "rig file whose depth_offset / depth_scale correct each camera's depth (docs/conventions.md "
-        "\"Rig file\"); empty: none"),
+        "rig file whose depth_offset / depth_scale correct each camera's depth "
+        "(docs/conventions.md \"Rig file\"); empty: none"),
       P("sync/window", sync.window, "s", atLeast(1e-4), "capture-stamp span of one cycle"),
       P("sync/max_wait", sync.max_wait, "s", atLeast(0),
         "how long a cycle waits for a late camera"),
