@@ -602,12 +602,30 @@ def offset_vs_range(results):
     return float(a), float(b), int(ok.sum())
 
 
-def run_folder(folder, board=None, dark_parity=None, frames=None, repeat_px=REPEAT_PX, calib=None):
-    """Measures every frame of a data folder (intrinsics from `calib`, default the folder's
-    calib_ir.yaml). Returns dict with results, excluded, temporal, dark_parity, votes, names,
-    K, dist."""
+def fit_intrinsics(folder, names, K, dist, board=None):
+    """IR intrinsics fitted jointly on the corners of frames `names` (cv2.calibrateCamera, 5
+    distortion coefficients, starting from K, dist). Returns (rms reprojection [px], K, dist)."""
     board = board or Board()
-    K, dist = read_intrinsics(calib or os.path.join(folder, "calib_ir.yaml"))
+    obj = board.object_points().astype(np.float32)
+    pts = [read_corners(os.path.join(folder, n + "_ir_points.yaml")).astype(np.float32).reshape(-1, 1, 2)
+           for n in names]
+    shape = cv2.imread(os.path.join(folder, names[0] + "_depth.png"), cv2.IMREAD_UNCHANGED).shape
+    rms, K2, d2, _, _ = cv2.calibrateCamera([obj] * len(pts), pts, (shape[1], shape[0]), K.copy(),
+                                            np.asarray(dist, np.float64).reshape(1, -1).copy(),
+                                            flags=cv2.CALIB_USE_INTRINSIC_GUESS)
+    return float(rms), K2, d2.ravel()
+
+
+def run_folder(folder, board=None, dark_parity=None, frames=None, repeat_px=REPEAT_PX, calib=None,
+               intrinsics=None):
+    """Measures every frame of a data folder (intrinsics from `calib`, default the folder's
+    calib_ir.yaml, or `intrinsics` = (K, dist) when given). Returns dict with results, excluded,
+    temporal, dark_parity, votes, names, K, dist."""
+    board = board or Board()
+    if intrinsics is not None:
+        K, dist = intrinsics
+    else:
+        K, dist = read_intrinsics(calib or os.path.join(folder, "calib_ir.yaml"))
     names = frames if frames is not None else list_frames(folder)
     loaded = [load_frame(folder, n) for n in names]
     votes = dark_parity_votes([(ir, c) for _, c, ir in loaded if ir is not None], K, dist, board)

@@ -157,6 +157,12 @@ class SensorCheckCommandLine(unittest.TestCase):
     def test_missing_data_exit_1(self):
         self.assertEqual(self.run_tool(os.path.join(DATA, "no_such_dir")).returncode, 1)
 
+    def test_joint_intrinsics(self):
+        p = self.run_tool(DATA, "--no-procedure", "--joint-intrinsics")
+        self.assertEqual(p.returncode, 0, p.stderr)
+        self.assertIn("IR intrinsics fitted jointly on the 7 measured frames' corners", p.stdout)
+        self.assertIn("IR intrinsics (fitted jointly, below)", p.stdout)
+
     def test_table(self):
         p = self.run_tool(DATA)
         self.assertEqual(p.returncode, 0, p.stderr)
