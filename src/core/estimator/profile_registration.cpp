@@ -182,6 +182,26 @@ double axialSearch(const std::vector<double>& ts, const std::vector<double>& rs,
 /// misses the model counts as one of the joint's side silhouette: within 25 deg of radial, the
 /// cylinders and the 18 deg elevator taper, not the end face, the shoulders or the bore.
 constexpr double kSilhouetteNormal = 0.9;
+
+/// The returned amplitude of point p (seen from eye) at the model's surface (normal from the
+/// profile gradient gr at the fit's axis o, z), for the assumed config.reflectivity: takes its
+/// weak-return bias (along the ray, farther) out of the residual *e and returns its noise, which
+/// bounds the point's sigma below (0 when the geometry is degenerate).
+double correctWeakReturn(const Eigen::Vector3d& p, const Eigen::Vector3d& eye,
+                         const Eigen::Vector3d& o, const Eigen::Vector3d& z,
+                         const Eigen::Vector2d& gr, const EstimatorConfig::ProfileFit& config,
+                         double* e) {
+  const Eigen::Vector3d q = p - o;
+  const Eigen::Vector3d radial = q - q.dot(z) * z;
+  const Eigen::Vector3d ray = p - eye;
+  const double range = ray.norm(), rn = radial.norm();
+  if (range <= 0.1 || rn <= 1e-9) return 0.0;
+  const Eigen::Vector3d n3 = (gr.x() * z + gr.y() * (radial / rn)).normalized();
+  const double n_dot_ray = n3.dot(ray) / range;
+  const double a = config.reflectivity * std::abs(n_dot_ray) / (range * range);
+  *e -= kinect_v2::weakReturnBias(kAmplitude, a, config.bias_reference) * n_dot_ray;
+  return kinect_v2::amplitudeSigma(kAmplitude, a);
+}
 }  // namespace
 
 // Over 120 lines because it is one IRLS loop whose per-iteration state (correspondences,
@@ -226,23 +246,10 @@ ProfileFitResult refineProfile(const std::vector<Eigen::Vector3f>& points,
       bool hit = false;
       double e = profileResidual(model, pts[i], o, z, e1, e2, eyes ? &(*eyes)[i] : nullptr, &gr,
                                  &hit);
-      double amp_sigma = 0.0;
-      if (hit && config.reflectivity > 0) {
-        // The point's returned amplitude at the model's surface: its weak-return bias (along the
-        // ray, farther) is taken out of the residual, its noise bounds the sigma below.
-        const Eigen::Vector3d q0 = pts[i] - o;
-        const double zc0 = q0.dot(z);
-        const Eigen::Vector3d radial = q0 - zc0 * z;
-        const Eigen::Vector3d ray = pts[i] - (*eyes)[i].cast<double>();
-        const double range = ray.norm(), rn = radial.norm();
-        if (range > 0.1 && rn > 1e-9) {
-          const Eigen::Vector3d n3 = (gr.x() * z + gr.y() * (radial / rn)).normalized();
-          const double n_dot_ray = n3.dot(ray) / range;
-          const double a = config.reflectivity * std::abs(n_dot_ray) / (range * range);
-          e -= kinect_v2::weakReturnBias(kAmplitude, a, config.bias_reference) * n_dot_ray;
-          amp_sigma = kinect_v2::amplitudeSigma(kAmplitude, a);
-        }
-      }
+      const double amp_sigma =
+          hit && config.reflectivity > 0
+              ? correctWeakReturn(pts[i], (*eyes)[i].cast<double>(), o, z, gr, config, &e)
+              : 0.0;
       const double d = std::abs(e);
       cost += std::min(d * d, T2);
       const double gate = std::min(T, std::max(0.01, 3.0 * sigmas[i]));
