@@ -28,6 +28,7 @@ OPTIONS = {
                         "--skip-camera", "--no-temporal", "--no-tracking", "--threads",
                         "--vote-fraction", "--box-reach", "--confirmations",
                         "--no-silhouette-points", "--incidence-noise"],
+    "detect_target": ["--target", "--squares", "--square", "--marker", "--dictionary"],
     "detector_eval": ["--model", "--darknet-cfg", "--data", "--split", "--input", "--roi", "--conf",
                       "--max-per-class", "--cross-class-nms", "--labels", "--threads", "--timing",
                       "--image", "--repeat", "--csv", "--min-ap"],
@@ -94,6 +95,7 @@ class ToolsCli(unittest.TestCase):
         f, d = self.file, self.tmp
         cases = {
             "bench_estimator": ("--threads", [f, "--threads", "0"]),
+            "detect_target": ("--square", [f, "--square", "0"]),
             "detector_eval": ("--conf", ["--model", f, "--data", d, "--conf", "2"]),
             "evaluate": ("--rate", [f, "--rate", "abc"]),
             "make_models": ("--spacing", [d, "--spacing", "-1"]),
@@ -123,6 +125,8 @@ class ToolsCli(unittest.TestCase):
             ("detector_eval", "--roi", ["--model", f, "--timing", "320x320", "--roi", "1,2,3"]),
             ("mesh_to_cloud", "--seed", [f, "o.pcd", "--seed", "-3"]),
             ("rig_info", "--target", [f, "--target", "1", "2"]),
+            ("detect_target", "--target", [f, "--target", "circles"]),
+            ("detect_target", "--squares", [f, "--squares", "5by7"]),
             ("render_board", "--off", ["--poses", f, "--out", self.tmp, "--off", "nope"]),
             ("render_board", "--dark-parity", ["--poses", f, "--out", self.tmp, "--dark-parity",
                                                "2"]),

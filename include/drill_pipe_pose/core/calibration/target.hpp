@@ -45,6 +45,17 @@ class TargetTexture {
 
 /// Finds the target in an 8-bit grey image: corner ids and sub-pixel positions (OpenCV's pixel
 /// convention: (0, 0) is the centre of the top-left pixel). Empty when not found.
+/// Chessboard: the corners in OpenCV's order (findChessboardCorners), which is ambiguous under a
+/// half turn of the board (and a quarter turn for a square pattern): id k may be the corner
+/// targetCorners()[n - 1 - k]. The solver resolves it (the pose that fits the other cameras).
 std::vector<CornerObservation> detectTarget(const TargetGeometry& target, const cv::Mat& gray);
+
+/// An image as detectTarget wants it: 8-bit grey. 8-bit grey is returned as is, BGR / BGRA are
+/// converted, 16-bit (e.g. a Kinect IR image) is stretched linearly so that the 1st..99th
+/// percentiles of its non-zero pixels span 0..255. Throws InputError naming `source` otherwise.
+cv::Mat toDetectionGray(const cv::Mat& image, const std::string& source);
+
+/// "charuco" | "chessboard" (InputError naming `source` otherwise).
+TargetGeometry::Type parseTargetType(const std::string& name, const std::string& source);
 
 }  // namespace drill_pipe_pose::calibration
