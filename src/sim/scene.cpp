@@ -1,12 +1,37 @@
 #include "drill_pipe_pose/sim/scene.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace drill_pipe_pose::sim {
 
+namespace {
+
+/// Key pose k held, then moving linearly to k + 1 (Trajectory::key_poses).
+Eigen::Isometry3d keyPose(const std::vector<Eigen::Isometry3d>& keys, double hold_s,
+                          double move_s, double t) {
+  const double period = std::max(hold_s + move_s, 1e-9);
+  const double k = std::floor(std::max(t, 0.0) / period);
+  if (k >= static_cast<double>(keys.size() - 1)) return keys.back();
+  const size_t i = static_cast<size_t>(k);
+  const double s = std::max(t, 0.0) - k * period - hold_s;
+  if (s <= 0.0 || move_s <= 0.0) return keys[i];
+  const double a = std::min(s / move_s, 1.0);
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation() = (1.0 - a) * keys[i].translation() + a * keys[i + 1].translation();
+  T.linear() = Eigen::Quaterniond(keys[i].linear())
+                   .slerp(a, Eigen::Quaterniond(keys[i + 1].linear()))
+                   .toRotationMatrix();
+  return T;
+}
+
+}  // namespace
+
 Eigen::Isometry3d Trajectory::pose(double t) const {
   Eigen::Isometry3d T = T_world_anchor;
-  if (!pose_sequence.empty()) {
+  if (!key_poses.empty()) {
+    T = keyPose(key_poses, hold_s, move_s, t);
+  } else if (!pose_sequence.empty()) {
     const double k = std::floor(std::max(t, 0.0) / std::max(pose_interval_s, 1e-9));
     T = pose_sequence[static_cast<size_t>(k) % pose_sequence.size()];
   }
@@ -92,6 +117,15 @@ bool Scene::intersect(const Ray& ray, const SceneSnapshot& snap, const std::vect
   hit->p_local = best_ray_local.o + best_t * best_ray_local.d;
   hit->reflectivity = static_cast<float>(o.material.reflectivity);
   hit->bgr = o.material.bgr;
+  if (o.texture && best_local.n.z() > 0.5) {
+    const double a = o.texture->albedo(hit->p_local.x(), hit->p_local.y());
+    if (a >= 0.0) {
+      hit->reflectivity = static_cast<float>(kBlackPrintReflectivity +
+                                             (kPaperReflectivity - kBlackPrintReflectivity) * a);
+      const uint8_t g = static_cast<uint8_t>(std::lround(255.0 * a));
+      hit->bgr = {{g, g, g}};
+    }
+  }
   if (!o.mud.empty()) {
     const Eigen::Vector3d& p = hit->p_local;
     const double phi = std::atan2(p.y(), p.x());

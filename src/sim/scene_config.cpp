@@ -248,10 +248,46 @@ void addRoom(const YAML::Node& room, SceneConfig* cfg, const std::string& where)
       R_from_z(-Eigen::Vector3d::UnitY()), walls);
 }
 
+CalibrationTargetConfig parseCalibrationTarget(const YAML::Node& n, const std::string& w) {
+  if (!n.IsMap()) fail(w, ": expected a map");
+  static const std::set<std::string> keys = {
+      "type",   "squares",   "square_length", "marker_length", "dictionary",
+      "margin", "thickness", "hold_s",        "move_s",        "placements"};
+  for (const auto& kv : n)
+    if (!keys.count(kv.first.as<std::string>()))
+      fail(w, ": unknown key \"", kv.first.as<std::string>(), "\"");
+  CalibrationTargetConfig c;
+  calibration::TargetGeometry& g = c.geometry;
+  g.type = calibration::parseTargetType(yamlGet<std::string>(n, "type", w), w + ".type");
+  const Eigen::Vector2d sq = yamlVector<2>(yamlChild(n, "squares", w), "squares", w);
+  if (sq != sq.array().round().matrix()) fail(w, ": squares: expected two whole numbers");
+  g.squares_x = static_cast<int>(sq.x());
+  g.squares_y = static_cast<int>(sq.y());
+  g.square_length = yamlGet<double>(n, "square_length", w);
+  g.marker_length = yamlGetOr<double>(n, "marker_length", g.marker_length, w);
+  g.dictionary = yamlGetOr<std::string>(n, "dictionary", g.dictionary, w);
+  calibration::validateTarget(g, w);
+  c.margin = yamlGetOr<double>(n, "margin", c.margin, w);
+  c.thickness = yamlGetOr<double>(n, "thickness", c.thickness, w);
+  c.hold_s = yamlGet<double>(n, "hold_s", w);
+  c.move_s = yamlGetOr<double>(n, "move_s", c.move_s, w);
+  if (!(c.margin >= 0)) fail(w, ".margin = ", c.margin, ": expected >= 0 [m]");
+  if (!(c.thickness > 0)) fail(w, ".thickness = ", c.thickness, ": expected > 0 [m]");
+  if (!(c.hold_s > 0)) fail(w, ".hold_s = ", c.hold_s, ": expected > 0 [s]");
+  if (!(c.move_s >= 0)) fail(w, ".move_s = ", c.move_s, ": expected >= 0 [s]");
+  const YAML::Node pl = yamlChild(n, "placements", w);
+  if (!pl.IsSequence() || pl.size() == 0)
+    fail(w, ".placements: expected a non-empty sequence of poses");
+  for (size_t k = 0; k < pl.size(); ++k)
+    c.placements.push_back(parsePose(pl[k], w + ".placements[" + std::to_string(k) + "]"));
+  return c;
+}
+
 SceneConfig parseRoot(const YAML::Node& root, const std::string& src) {
   if (!root.IsMap()) fail(src, ": expected a map at the top level");
-  static const std::set<std::string> top = {"name",  "description", "work_zone", "room",
-                                            "light", "materials",   "objects",   "pipes"};
+  static const std::set<std::string> top = {"name",      "description", "work_zone",
+                                            "room",      "light",       "materials",
+                                            "objects",   "pipes",       "calibration_target"};
   for (const auto& kv : root)
     if (!top.count(kv.first.as<std::string>()))
       fail(src, ": unknown top-level key \"", kv.first.as<std::string>(), "\"");
@@ -279,6 +315,9 @@ SceneConfig parseRoot(const YAML::Node& root, const std::string& src) {
     }
   }
   if (root["room"]) addRoom(root["room"], &cfg, src + ": room");
+  if (root["calibration_target"])
+    cfg.calibration_target =
+        parseCalibrationTarget(root["calibration_target"], src + ": calibration_target");
 
   if (root["objects"]) {
     const YAML::Node objs = root["objects"];
@@ -312,6 +351,8 @@ SceneConfig parseRoot(const YAML::Node& root, const std::string& src) {
     }
   }
 
+  // A calibration scene may have no pipes; every other scene needs at least one.
+  if (cfg.calibration_target && !root["pipes"]) return cfg;
   const YAML::Node pipes = yamlChild(root, "pipes", src);
   if (!pipes.IsSequence() || pipes.size() == 0) fail(src, ": pipes: expected a non-empty sequence");
   std::vector<std::vector<Eigen::Isometry3d>> random_sets;
@@ -400,6 +441,33 @@ std::vector<MudPatch> makeMud(Rng& rng, const SensorEffects& fx, double z_lo, do
 
 }  // namespace
 
+namespace {
+
+/// Texels per printed square of the simulated target: 2 mm on the 0.24 m squares, finer than the
+/// 16 colour samples per HD pixel need at 3 m (about 1.2 mm apart); the squares' edges fall on
+/// texel boundaries whatever the resolution.
+constexpr int kTargetTexelsPerSquare = 120;
+
+void addCalibrationTarget(const CalibrationTargetConfig& c, Scene* scene) {
+  const Eigen::Vector2d size = calibration::targetSize(c.geometry);
+  SceneObject o;
+  o.name = "calibration_target";
+  o.shape = Shape::box(Eigen::Vector3d(size.x() + 2 * c.margin, size.y() + 2 * c.margin,
+                                       c.thickness));
+  o.material = Material{"paper", kPaperReflectivity, {{255, 255, 255}}};
+  o.texture = std::make_shared<calibration::TargetTexture>(c.geometry, kTargetTexelsPerSquare);
+  Trajectory traj;
+  traj.key_poses = c.placements;
+  traj.hold_s = c.hold_s;
+  traj.move_s = c.move_s;
+  o.trajectory = scene->addTrajectory(traj);
+  // Printed face (local +z) at the target frame's z = 0.
+  o.T_anchor_object = Eigen::Translation3d(0.0, 0.0, -c.thickness / 2.0) * Eigen::Isometry3d::Identity();
+  scene->objects.push_back(o);
+}
+
+}  // namespace
+
 Scene buildScene(const SceneConfig& cfg, const SensorEffects& fx, uint32_t seed) {
   Scene scene;
   scene.light = cfg.light;
@@ -474,6 +542,7 @@ Scene buildScene(const SceneConfig& cfg, const SensorEffects& fx, uint32_t seed)
       scene.objects.push_back(tube);
     }
   }
+  if (cfg.calibration_target) addCalibrationTarget(*cfg.calibration_target, &scene);
   return scene;
 }
 

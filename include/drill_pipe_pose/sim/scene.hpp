@@ -12,9 +12,11 @@
 #include <Eigen/Geometry>
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
+#include "drill_pipe_pose/core/calibration/target.hpp"
 #include "drill_pipe_pose/core/conventions.hpp"
 #include "drill_pipe_pose/core/tool_joint.hpp"
 #include "drill_pipe_pose/sim/geometry.hpp"
@@ -37,6 +39,11 @@ struct MudPatch {
   double reflectivity_factor = 0.3;  ///< multiplies the material's reflectivity inside the patch
 };
 
+/// IR reflectivity of a printed calibration target: white paper (the sensor check's calibration,
+/// docs/sensor_check.md: paper = 0.8) and black toner (about 0.05, as black rubber).
+constexpr double kPaperReflectivity = 0.8;
+constexpr double kBlackPrintReflectivity = 0.05;
+
 /// Mud colour (B, G, R): dried drilling mud, brown-grey.
 constexpr std::array<uint8_t, 3> kMudBgr{{45, 65, 85}};
 
@@ -55,9 +62,15 @@ struct Trajectory {
   double swing_period_s = 0.0;                         ///< [s]
   Eigen::Vector3d swing_axis = Eigen::Vector3d::UnitX();            ///< world, unit
   Eigen::Vector3d swing_pivot_offset = Eigen::Vector3d(0, 0, 3.0);  ///< [m] world
+  /// If non-empty, replaces T_world_anchor and pose_sequence: each key pose held `hold_s`, then
+  /// `move_s` of linear motion (translation linear, rotation slerp) to the next; the last pose is
+  /// held for ever. Key pose k is held over [k (hold_s + move_s), k (hold_s + move_s) + hold_s).
+  std::vector<Eigen::Isometry3d> key_poses;
+  double hold_s = 1.0, move_s = 0.0;  ///< [s]
 
   bool isStatic() const {
-    return pose_sequence.empty() && velocity.isZero(0) && swing_amplitude_rad == 0.0;
+    return pose_sequence.empty() && key_poses.empty() && velocity.isZero(0) &&
+           swing_amplitude_rad == 0.0;
   }
   /// T_world_anchor at time t [s].
   Eigen::Isometry3d pose(double t) const;
@@ -73,6 +86,11 @@ struct SceneObject {
   /// T_anchor_object for moving objects; T_world_object when trajectory == -1.
   Eigen::Isometry3d T_anchor_object = Eigen::Isometry3d::Identity();
   int end = -1;  ///< index into Scene::ends when this object is a tool joint
+  /// A printed calibration target on the local +z face (a box): texture coordinates = local
+  /// (x, y). Inside the printed squares the albedo sets the colour (albedo * 255, grey) and the
+  /// IR reflectivity (kBlackPrintReflectivity .. kPaperReflectivity); the colour image
+  /// supersamples its pixels.
+  std::shared_ptr<const calibration::TargetTexture> texture;
 };
 
 /// A ground-truth pipe end (tool joint) in the scene.

@@ -15,7 +15,7 @@
 //     - {name: barrel, type: cylinder, radius: 0.29, height: 0.88, pose: POSE, material: M}
 //     - {name: crate, type: box, size: [0.6, 0.4, 0.5], pose: POSE, material: M}   # pose = centre
 //     - {name: catwalk, type: plane, size: [2, 10], pose: POSE, material: M}  # 0 = unbounded
-//   pipes:
+//   pipes:                                   # optional only in a scene with a calibration_target
 //     - name: box_sample
 //       type: tool_joint            # a single tool joint with a short tube (lab sample) ...
 //       end: box_end                # box_end | pin_end
@@ -31,6 +31,18 @@
 //       ground_truth: true          # optional; false: a distractor (rendered, detected, not
 //                                   # in groundTruth())
 //       motion: MOTION              # optional
+//
+//   calibration_target:                      # optional: a printed board carried through the zone
+//     type: charuco                          # charuco | chessboard
+//     squares: [5, 5]                        # printed squares along target x, y
+//     square_length: 0.24                    # [m]
+//     marker_length: 0.18                    # [m] charuco only
+//     dictionary: DICT_4X4_50                # charuco only
+//     margin: 0.06                           # optional [m] white paper around the squares
+//     thickness: 0.005                       # optional [m] the plate (printed face = local +z)
+//     hold_s: 2.0                            # [s] each placement is held this long ...
+//     move_s: 1.0                            # optional [s] ... then moves linearly to the next
+//     placements: [POSE, ...]                # T_world_target (core/calibration/target.hpp frame)
 //
 //   POSE   = {translation: [x, y, z], rpy_deg: [roll, pitch, yaw]}   # R = Rz(yaw) Ry(pitch)
 //   Rx(roll)
@@ -51,6 +63,7 @@
 
 #include <Eigen/Geometry>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -92,6 +105,21 @@ struct PipeConfig {
   Trajectory motion;         ///< T_world_anchor = T_world_end (tool_joint) / T_world_box_end (pipe)
 };
 
+/// The calibration target of a scene file: a thin white plate carrying the printed squares,
+/// placed at each placement for hold_s, moving linearly for move_s between them.
+struct CalibrationTargetConfig {
+  calibration::TargetGeometry geometry;
+  double margin = 0.06;      ///< [m] white paper beyond the squares
+  double thickness = 0.005;  ///< [m]
+  double hold_s = 2.0;       ///< [s]
+  double move_s = 0.0;       ///< [s]
+  std::vector<Eigen::Isometry3d> placements;  ///< T_world_target
+  /// Start of placement k's hold [s]; the hold lasts hold_s.
+  double holdStart(size_t k) const { return static_cast<double>(k) * (hold_s + move_s); }
+  /// Middle of placement k's hold [s].
+  double holdMiddle(size_t k) const { return holdStart(k) + hold_s / 2.0; }
+};
+
 struct SceneConfig {
   std::string name;
   std::string description;
@@ -100,6 +128,7 @@ struct SceneConfig {
   std::map<std::string, Material> materials;  ///< built-ins plus the file's
   std::vector<ObjectConfig> objects;          ///< room included
   std::vector<PipeConfig> pipes;
+  std::optional<CalibrationTargetConfig> calibration_target;
 };
 
 /// The built-in materials (concrete, wall_paint, yellow_paint, grey_paint, dark_steel,
@@ -112,7 +141,8 @@ SceneConfig loadSceneConfig(const std::string& path);
 SceneConfig parseSceneConfig(const std::string& yaml_text, const std::string& source);
 
 /// Builds the rendered scene: nominal tool joints worn as `effects` says (seeded by `seed` and
-/// the pipe index), mud patches, whole pipes split into box joint + tube + pin joint.
+/// the pipe index), mud patches, whole pipes split into box joint + tube + pin joint, the
+/// calibration target as a textured plate (the last object, named "calibration_target").
 Scene buildScene(const SceneConfig& config, const SensorEffects& effects, uint32_t seed);
 
 }  // namespace drill_pipe_pose::sim
