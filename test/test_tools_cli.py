@@ -45,6 +45,8 @@ OPTIONS = {
     "rig_info": ["--target", "--zone"],
     "simulate_bag": ["--scene", "--out", "--rig", "--duration", "--start", "--profile", "--seed",
                      "--no-detection", "--color", "--crop", "--sensors", "--quiet", "--effect-off"],
+    "simulate_calibration": ["--rig", "--scene", "--profile", "--seed", "--out", "--true-rig",
+                             "--frames-per-placement", "--sensors"],
 }
 
 
@@ -105,6 +107,9 @@ class ToolsCli(unittest.TestCase):
             "rig_info": ("--zone", [f, "--zone", "1", "1", "1", "0", "0", "0"]),
             "simulate_bag": ("--duration", ["--scene", f, "--out", os.path.join(d, "o.bag"),
                                             "--duration", "0"]),
+            "simulate_calibration": ("--frames-per-placement",
+                                     ["--scene", f, "--out", os.path.join(d, "o.yaml"),
+                                      "--frames-per-placement", "0"]),
         }
         self.assertEqual(sorted(cases), sorted(OPTIONS))
         for tool, (opt, args) in cases.items():

@@ -1,0 +1,191 @@
+// simulate_calibration: the observations of a simulated rig calibration. For every placement of
+// the scene's calibration target and every camera, renders the HD colour image (1920x1080) and
+// the depth image at the middle of the placement's hold (and the frames after it with
+// --frames-per-placement N), finds the target (core/calibration/capture.hpp) and writes the
+// observations file; --true-rig writes the rig the simulator rendered with (the answer).
+//
+//   simulate_calibration --rig config/rigs/thesis_lab.yaml --scene config/scenes/calibration.yaml
+//       [--profile kinect_v2_calibrated] [--seed 1] --out obs.yaml [--true-rig true.yaml]
+//       [--frames-per-placement 1] [--sensors config/sensors]
+//
+// Anchor: placement 0 at its world pose (the scene file's surveyed floor mark). Progress and a
+// per-camera summary (placements found, corners) go to stderr. Exit status 0; 1 on a bad input
+// file or a scene without calibration_target; 2 on a bad command line.
+#include <opencv2/imgproc.hpp>
+
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "drill_pipe_pose/core/calibration/capture.hpp"
+#include "drill_pipe_pose/core/calibration/target.hpp"
+#include "drill_pipe_pose/core/errors.hpp"
+#include "drill_pipe_pose/sim/rig_simulator.hpp"
+#include "cli.hpp"
+
+using namespace drill_pipe_pose;
+namespace cal = drill_pipe_pose::calibration;
+
+namespace {
+
+cal::Intrinsics intrinsicsOf(const CameraInfoData& info) {
+  cal::Intrinsics k;
+  k.width = static_cast<int>(info.width);
+  k.height = static_cast<int>(info.height);
+  k.fx = info.K[0];
+  k.fy = info.K[4];
+  k.cx = info.K[2];
+  k.cy = info.K[5];
+  return k;
+}
+
+void writePose(std::ostream& o, const Eigen::Isometry3d& T) {
+  const Eigen::Quaterniond q(T.linear());
+  o << "{translation: [" << T.translation().x() << ", " << T.translation().y() << ", "
+    << T.translation().z() << "], rotation: [" << q.x() << ", " << q.y() << ", " << q.z() << ", "
+    << q.w() << "]}";
+}
+
+/// Stand-in serializer of an ObservationSet until core observations.cpp (saveObservations) is in
+/// this branch: the same content as flow-style YAML.
+void writeObservations(const cal::ObservationSet& set, const std::string& path) {
+  std::ofstream o(path);
+  if (!o) fail(path, ": cannot write");
+  o << std::setprecision(10) << "world_frame: " << set.world_frame << "\ntarget: {type: "
+    << (set.target.type == cal::TargetGeometry::Type::kCharuco ? "charuco" : "chessboard")
+    << ", squares: [" << set.target.squares_x << ", " << set.target.squares_y
+    << "], square_length: " << set.target.square_length
+    << ", marker_length: " << set.target.marker_length << ", dictionary: " << set.target.dictionary
+    << "}\nanchor: {placement: " << set.anchor.placement.value_or(-1) << ", T_world_anchor: ";
+  writePose(o, set.anchor.T_world_anchor);
+  o << "}\ncameras:\n";
+  for (const cal::CameraSetup& c : set.cameras) {
+    auto intr = [&](const cal::Intrinsics& k) {
+      o << "{width: " << k.width << ", height: " << k.height << ", fx: " << k.fx << ", fy: " << k.fy
+        << ", cx: " << k.cx << ", cy: " << k.cy << ", D: [0, 0, 0, 0, 0]}";
+    };
+    o << "  - name: " << c.name << "\n    sensor: " << c.sensor << "\n    intrinsics: ";
+    intr(c.intrinsics);
+    o << "\n    depth_intrinsics: ";
+    intr(*c.depth_intrinsics);
+    o << "\n    T_camera_depth: ";
+    writePose(o, c.T_camera_depth);
+    o << "\n";
+  }
+  o << "observations:\n";
+  for (const cal::Observation& ob : set.observations) {
+    o << "  - {camera: " << ob.camera << ", placement: " << ob.placement << ", stamp: " << ob.stamp
+      << ",\n     corners: [";
+    for (size_t k = 0; k < ob.corners.size(); ++k)
+      o << (k ? ", " : "") << "[" << ob.corners[k].id << ", " << ob.corners[k].uv.x() << ", "
+        << ob.corners[k].uv.y() << "]";
+    o << "],\n     depth: [";
+    for (size_t k = 0; k < ob.depth.size(); ++k)
+      o << (k ? ", " : "") << "[" << ob.depth[k].u << ", " << ob.depth[k].v << ", " << ob.depth[k].z
+        << "]";
+    o << "]}\n";
+  }
+}
+
+/// Renders and extracts every (placement, camera, frame); prints progress and the coverage.
+cal::ObservationSet capture(sim::RigSimulator& sim, const sim::CalibrationTargetConfig& tc,
+                            int frames) {
+  cal::ObservationSet set;
+  set.world_frame = sim.worldFrame();
+  set.target = tc.geometry;
+  set.anchor.placement = 0;
+  set.anchor.T_world_anchor = tc.placements.at(0);
+  for (size_t i = 0; i < sim.numCameras(); ++i) {
+    cal::CameraSetup c;
+    c.name = sim.cameraName(i);
+    c.intrinsics = intrinsicsOf(sim.colorInfo(i));
+    c.depth_intrinsics = intrinsicsOf(sim.depthInfo(i));
+    c.T_camera_depth = sim.T_link_depth(i);
+    set.cameras.push_back(c);
+  }
+  std::vector<int> seen(sim.numCameras(), 0), corners(sim.numCameras(), 0);
+  double render_s = 0;
+  int rendered = 0;
+  const double period = 1.0 / sim.sensor(0).frame_rate_hz;
+  for (size_t k = 0; k < tc.placements.size(); ++k) {
+    std::cerr << "placement " << k + 1 << "/" << tc.placements.size() << "\n";
+    for (size_t i = 0; i < sim.numCameras(); ++i)
+      for (int j = 0; j < frames; ++j) {
+        const double t = tc.holdMiddle(k) + j * period;
+        const auto t0 = std::chrono::steady_clock::now();
+        const sim::RigSimulator::Frame f = sim.render(i, t, k * 64 + static_cast<uint64_t>(j));
+        render_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        ++rendered;
+        const cv::Mat bgr(static_cast<int>(f.color_height), static_cast<int>(f.color_width),
+                          CV_8UC3, const_cast<uint8_t*>(f.bgr.data()));
+        cv::Mat gray;
+        cv::cvtColor(bgr, gray, cv::COLOR_BGR2GRAY);
+        cal::Observation ob = cal::extractObservation(tc.geometry, set.cameras[i], gray,
+                                                      f.sensor_frame.depth, static_cast<int>(k),
+                                                      t);
+        if (ob.corners.empty()) continue;
+        if (j == 0) ++seen[i];
+        corners[i] += static_cast<int>(ob.corners.size());
+        set.observations.push_back(std::move(ob));
+      }
+  }
+  for (size_t i = 0; i < sim.numCameras(); ++i)
+    std::fprintf(stderr, "%s: target found at %d of %zu placements, %d corners\n",
+                 sim.cameraName(i).c_str(), seen[i], tc.placements.size(), corners[i]);
+  std::fprintf(stderr, "%.2f s per rendered frame (HD colour + depth), %d frames\n",
+               render_s / std::max(rendered, 1), rendered);
+  return set;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string rig = "config/rigs/thesis_lab.yaml", scene, out, true_rig;
+  int frames = 1;
+  sim::SimulatorOptions opt;
+  opt.color = true;
+  opt.color_scale = 2;  // the Kinect v2's HD colour image
+  opt.simulated_detection = false;
+  CLI::App app{"Simulates a rig calibration: renders each camera at each placement of the "
+               "scene's calibration target and writes the corners and depth samples found.",
+               "simulate_calibration"};
+  tools::configureApp(app);
+  app.add_option("--rig", rig, "rig calibration file (the true camera poses)")
+      ->capture_default_str()
+      ->check(CLI::ExistingFile);
+  app.add_option("--scene", scene, "scene file with a calibration_target")
+      ->required()
+      ->check(CLI::ExistingFile);
+  app.add_option("--profile", opt.profile, "sensor profile")
+      ->capture_default_str()
+      ->check(tools::throwingCheck("PROFILE", [](const std::string& v) { sim::sensorProfile(v); }));
+  app.add_option("--seed", opt.seed, "random seed of the simulation")->capture_default_str();
+  app.add_option("--out", out, "observations file to write (YAML)")->required();
+  app.add_option("--true-rig", true_rig, "also write the true rig (YAML)");
+  app.add_option("--frames-per-placement", frames, "consecutive frames per camera and placement")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 30));
+  app.add_option("--sensors", opt.sensor_config_dir, "folder of the sensor intrinsics files");
+  tools::parseOrExit(app, argc, argv);
+  try {
+    auto sim = sim::loadScenario(rig, scene, opt);
+    const sim::SceneConfig cfg = sim::loadSceneConfig(scene);
+    if (!cfg.calibration_target) fail(scene, ": no calibration_target");
+    const cal::ObservationSet set = capture(*sim, *cfg.calibration_target, frames);
+    writeObservations(set, out);
+    if (!true_rig.empty()) {
+      std::ofstream f(true_rig);
+      if (!f) fail(true_rig, ": cannot write");
+      f << rigCalibrationToYaml(sim->trueRig());
+    }
+  } catch (const InputError& e) {
+    std::cerr << "simulate_calibration: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}
