@@ -28,16 +28,16 @@ CameraInfoData makeInfo(const PinholeCamera& cam, const std::string& frame) {
   return info;
 }
 
-/// The colour camera at `scale` times its resolution: focal lengths x scale, centre
-/// (c + 0.5) scale - 0.5 (pixel centres at integers), e.g. the Kinect v2's QHD model x 2 = HD.
+/// The colour camera at `scale` times its resolution: focal lengths and centre x scale. The
+/// built-in Kinect v2 QHD model (c = 479.75, 269.75) is the HD calibration (959.5, 539.5) halved,
+/// so x 2 gives the HD image's own values back ((c + 0.5) 2 - 0.5 would give 960.0, 540.0).
 PinholeCamera scaledColor(const PinholeCamera& c, int scale) {
   if (scale < 1 || scale > 8) fail("SimulatorOptions: color_scale = ", scale, ": expected 1..8");
   if (c.offsetX() != 0 || c.offsetY() != 0 || c.imageWidth() != c.sensorWidth())
     fail("SimulatorOptions: color_scale = ", scale, ": the colour model is cropped");
   const double s = scale;
   return PinholeCamera::fromIntrinsics(c.sensorWidth() * scale, c.sensorHeight() * scale,
-                                       c.fx() * s, c.fy() * s, (c.cx() + 0.5) * s - 0.5,
-                                       (c.cy() + 0.5) * s - 0.5);
+                                       c.fx() * s, c.fy() * s, c.cx() * s, c.cy() * s);
 }
 
 /// A random unit vector.

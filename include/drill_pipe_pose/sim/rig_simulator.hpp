@@ -37,8 +37,9 @@ struct SimulatorOptions {
   uint32_t seed = 1;                             ///< every random stream derives from it
   bool simulated_detection = true;               ///< fill SensorFrameData::boxes
   bool color = false;                            ///< render the BGR8 colour image too
-  /// Colour image resolution x this (intrinsics scaled, colorInfo() too): 2 turns the Kinect
-  /// v2's QHD model (960x540) into its HD image (1920x1080, fx = fy = 1081.4, c = 959.5, 539.5).
+  /// Colour image resolution x this (focal lengths and centre x this, colorInfo() too): 2 turns
+  /// the Kinect v2's QHD model (960x540) into its HD image (1920x1080, fx = fy = 1081.4,
+  /// c = 959.5, 539.5).
   int color_scale = 1;
   /// Directory of <sensor>.yaml files (config/sensors); empty: built-in kinect_v2 only.
   std::string sensor_config_dir;
