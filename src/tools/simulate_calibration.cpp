@@ -44,54 +44,6 @@ cal::Intrinsics intrinsicsOf(const CameraInfoData& info) {
   return k;
 }
 
-void writePose(std::ostream& o, const Eigen::Isometry3d& T) {
-  const Eigen::Quaterniond q(T.linear());
-  o << "{translation: [" << T.translation().x() << ", " << T.translation().y() << ", "
-    << T.translation().z() << "], rotation: [" << q.x() << ", " << q.y() << ", " << q.z() << ", "
-    << q.w() << "]}";
-}
-
-/// Stand-in serializer of an ObservationSet until core observations.cpp (saveObservations) is in
-/// this branch: the same content as flow-style YAML.
-void writeObservations(const cal::ObservationSet& set, const std::string& path) {
-  std::ofstream o(path);
-  if (!o) fail(path, ": cannot write");
-  o << std::setprecision(10) << "world_frame: " << set.world_frame << "\ntarget: {type: "
-    << (set.target.type == cal::TargetGeometry::Type::kCharuco ? "charuco" : "chessboard")
-    << ", squares: [" << set.target.squares_x << ", " << set.target.squares_y
-    << "], square_length: " << set.target.square_length
-    << ", marker_length: " << set.target.marker_length << ", dictionary: " << set.target.dictionary
-    << "}\nanchor: {placement: " << set.anchor.placement.value_or(-1) << ", T_world_anchor: ";
-  writePose(o, set.anchor.T_world_anchor);
-  o << "}\ncameras:\n";
-  for (const cal::CameraSetup& c : set.cameras) {
-    auto intr = [&](const cal::Intrinsics& k) {
-      o << "{width: " << k.width << ", height: " << k.height << ", fx: " << k.fx << ", fy: " << k.fy
-        << ", cx: " << k.cx << ", cy: " << k.cy << ", D: [0, 0, 0, 0, 0]}";
-    };
-    o << "  - name: " << c.name << "\n    sensor: " << c.sensor << "\n    intrinsics: ";
-    intr(c.intrinsics);
-    o << "\n    depth_intrinsics: ";
-    intr(*c.depth_intrinsics);
-    o << "\n    T_camera_depth: ";
-    writePose(o, c.T_camera_depth);
-    o << "\n";
-  }
-  o << "observations:\n";
-  for (const cal::Observation& ob : set.observations) {
-    o << "  - {camera: " << ob.camera << ", placement: " << ob.placement << ", stamp: " << ob.stamp
-      << ",\n     corners: [";
-    for (size_t k = 0; k < ob.corners.size(); ++k)
-      o << (k ? ", " : "") << "[" << ob.corners[k].id << ", " << ob.corners[k].uv.x() << ", "
-        << ob.corners[k].uv.y() << "]";
-    o << "],\n     depth: [";
-    for (size_t k = 0; k < ob.depth.size(); ++k)
-      o << (k ? ", " : "") << "[" << ob.depth[k].u << ", " << ob.depth[k].v << ", " << ob.depth[k].z
-        << "]";
-    o << "]}\n";
-  }
-}
-
 /// Renders and extracts every (placement, camera, frame); prints progress and the coverage.
 cal::ObservationSet capture(sim::RigSimulator& sim, const sim::CalibrationTargetConfig& tc,
                             int frames) {
@@ -177,7 +129,7 @@ int main(int argc, char** argv) {
     const sim::SceneConfig cfg = sim::loadSceneConfig(scene);
     if (!cfg.calibration_target) fail(scene, ": no calibration_target");
     const cal::ObservationSet set = capture(*sim, *cfg.calibration_target, frames);
-    writeObservations(set, out);
+    cal::saveObservations(set, out);
     if (!true_rig.empty()) {
       std::ofstream f(true_rig);
       if (!f) fail(true_rig, ": cannot write");

@@ -5,8 +5,10 @@
 #include <opencv2/imgproc.hpp>
 
 #include <cmath>
+#include <memory>
 
 #include "drill_pipe_pose/core/calibration/target.hpp"
+#include "drill_pipe_pose/core/kinect_noise.hpp"
 
 namespace drill_pipe_pose::calibration {
 
@@ -39,10 +41,21 @@ bool targetPose(const TargetGeometry& target, const CameraSetup& camera,
   return T->translation().z() > 0;
 }
 
-/// Depth pixels inside the projection of the shrunk outline, on an even grid.
+/// Whether target point (x, y) lies on white print at least `margin` from any darker print.
+bool onLightPrint(const TargetTexture& texture, double x, double y, double margin) {
+  for (const auto& [dx, dy] : {std::pair{0.0, 0.0}, {-1.0, -1.0}, {1.0, -1.0}, {1.0, 1.0},
+                               {-1.0, 1.0}, {0.0, -1.0}, {0.0, 1.0}, {-1.0, 0.0}, {1.0, 0.0}}) {
+    const double a = texture.albedo(x + dx * margin, y + dy * margin);
+    if (a < 0.5) return false;
+  }
+  return true;
+}
+
+/// Depth pixels inside the projection of the shrunk outline (and on the white print, bias-corrected, when asked),
+/// thinned evenly to at most max_samples.
 std::vector<DepthSample> sampleDepth(const TargetGeometry& target, const Intrinsics& k,
                                      const Eigen::Isometry3d& T_depth_target,
-                                     const DepthImage& depth, int max_samples) {
+                                     const DepthImage& depth, const CaptureOptions& options) {
   const Eigen::Vector2d half = targetSize(target) / 2.0 -
                                Eigen::Vector2d::Constant(target.square_length / 2.0);
   std::vector<cv::Point> outline;
@@ -54,17 +67,45 @@ std::vector<DepthSample> sampleDepth(const TargetGeometry& target, const Intrins
   }
   cv::Mat mask = cv::Mat::zeros(static_cast<int>(depth.height), static_cast<int>(depth.width), CV_8U);
   cv::fillConvexPoly(mask, outline, cv::Scalar(255));
-  const int inside = cv::countNonZero(mask);
-  if (inside == 0) return {};
-  const int stride = std::max(1, static_cast<int>(std::ceil(std::sqrt(
-                                     static_cast<double>(inside) / std::max(1, max_samples)))));
-  std::vector<DepthSample> out;
-  for (int v = 0; v < mask.rows; v += stride)
-    for (int u = 0; u < mask.cols; u += stride) {
+  // The target plane in the depth camera, to find where each pixel's ray meets the print.
+  const Eigen::Isometry3d T_target_depth = T_depth_target.inverse();
+  const Eigen::Vector3d n = T_depth_target.linear().col(2);
+  const double d = n.dot(T_depth_target.translation());
+  static thread_local std::unique_ptr<TargetTexture> texture;
+  static thread_local TargetGeometry texture_of;
+  if (      (!texture || texture_of.type != target.type || texture_of.squares_x != target.squares_x ||
+       texture_of.squares_y != target.squares_y || texture_of.square_length != target.square_length ||
+       texture_of.marker_length != target.marker_length || texture_of.dictionary != target.dictionary)) {
+    texture = std::make_unique<TargetTexture>(target);
+    texture_of = target;
+  }
+  std::vector<DepthSample> all;
+  for (int v = 0; v < mask.rows; ++v)
+    for (int u = 0; u < mask.cols; ++u) {
       if (!mask.at<uint8_t>(v, u)) continue;
+      const Eigen::Vector3d ray((u - k.cx) / k.fx, (v - k.cy) / k.fy, 1.0);
+      const Eigen::Vector3d p = T_target_depth * (ray * (d / n.dot(ray)));
+      if (!onLightPrint(*texture, p.x(), p.y(), options.edge_margin)) continue;
       const float z = depth.depthAt(static_cast<uint32_t>(u), static_cast<uint32_t>(v));
-      if (std::isfinite(z) && z > 0.0f) out.push_back({double(u), double(v), double(z)});
+      if (!(std::isfinite(z) && z > 0.0f)) continue;
+      double z_read = z, sigma = 0.0;
+      if (options.weak_return_model) {
+        // Amplitude a = r cos(incidence) / range^2 of the white print at this pixel (placed by
+        // the PnP pose): how much nearer than the floor's bias it reads, and its noise.
+        const double range = ray.norm() * d / n.dot(ray);
+        const double cos_inc = std::abs(n.dot(ray.normalized()));
+        const double a = options.light_reflectivity * cos_inc / (range * range);
+        const kinect_v2::AmplitudeModel model;
+        z_read += kinect_v2::weakReturnBias(model, model.bias_min_amplitude, 0.0) -
+                  kinect_v2::weakReturnBias(model, a, 0.0);
+        sigma = kinect_v2::amplitudeSigma(model, a);
+      }
+      all.push_back({double(u), double(v), z_read, sigma});
     }
+  const size_t step = std::max<size_t>(1, (all.size() + options.max_depth_samples - 1) /
+                                              std::max(1, options.max_depth_samples));
+  std::vector<DepthSample> out;
+  for (size_t i = 0; i < all.size(); i += step) out.push_back(all[i]);
   return out;
 }
 
@@ -84,8 +125,7 @@ Observation extractObservation(const TargetGeometry& target, const CameraSetup& 
   Eigen::Isometry3d T_camera_target = Eigen::Isometry3d::Identity();
   if (!targetPose(target, camera, obs.corners, &T_camera_target)) return obs;
   obs.depth = sampleDepth(target, *camera.depth_intrinsics,
-                          camera.T_camera_depth.inverse() * T_camera_target, depth,
-                          options.max_depth_samples);
+                          camera.T_camera_depth.inverse() * T_camera_target, depth, options);
   return obs;
 }
 

@@ -18,12 +18,29 @@ struct CaptureOptions {
   int max_depth_samples = 600;
   /// Fewest corners for an observation (and for the pose that places the depth samples).
   int min_corners = 6;
+  /// Depth samples only where the print is white within `edge_margin`, each with its read
+  /// depth corrected for the weak-return bias and given its own noise, both from the sensor
+  /// model (core/kinect_noise.hpp) at the print's amplitude a = r cos(incidence) / range^2. A
+  /// Kinect v2 reads a strong return nearer than a weak one (docs/sensor_check.md): at 5-6.5 m
+  /// white paper reads 11-25 mm nearer than the dark steel of a tool joint, whose bias is held
+  /// at its floor there; the correction makes the white print read like the steel, so the offset
+  /// found is the one the estimator needs. The black print is left out: its return is so weak at
+  /// these ranges that most of its pixels drop out and the rest scatter by ~0.1 m. On the simulator's calibration scene (seed
+  /// 71), depth from the whole board without the model put the offsets 10-19 mm off and pulled
+  /// the extrinsics by 5-11 mm.
+  bool weak_return_model = true;
+  /// IR reflectivity of the white print: 0.8, white paper, the unit of the sensor model's
+  /// amplitude (scripts/sensor_check --fit).
+  double light_reflectivity = 0.8;
+  /// [m] 10 mm: half a depth pixel at 7 m, so that a sample's pixel centre sees one print.
+  double edge_margin = 0.01;
 };
 
 /// The observation of `camera` at `placement` (empty `corners` when the target was not found).
 /// Depth samples (only when `camera.depth_intrinsics` and `depth` has pixels): the depth pixels
-/// inside the target's outline shrunk by half a square, the outline placed by a cv::solvePnP
-/// pose of the detected corners and camera.T_camera_depth; zero / invalid depths dropped.
+/// inside the target's outline shrunk by half a square (on its white print; with
+/// `weak_return_model`, bias-corrected and with their own noise), placed by a cv::solvePnP pose of the detected corners and camera.T_camera_depth;
+/// zero / invalid depths dropped.
 Observation extractObservation(const TargetGeometry& target, const CameraSetup& camera,
                                const cv::Mat& gray, const DepthImage& depth, int placement,
                                double stamp, const CaptureOptions& options = {});

@@ -53,9 +53,12 @@ struct CornerObservation {
   Eigen::Vector2d uv = Eigen::Vector2d::Zero();  ///< [px] in the camera's (distorted) image
 };
 
-/// A depth pixel on the target: (u, v) in the depth image, z_meas as the camera read it [m].
+/// A depth pixel on the target: (u, v) in the depth image, z_meas as the camera read it [m]
+/// (corrected for the print's weak-return bias where the capture knows it), and its expected
+/// noise [m] (0: the solver's default).
 struct DepthSample {
   double u = 0, v = 0, z = 0;
+  double sigma = 0;
 };
 
 struct Observation {

@@ -1,0 +1,174 @@
+// calibrate_rig: the rig file from what the cameras saw of the calibration target.
+//
+//   rosrun drill_pipe_pose calibrate_rig --observations OBS.yaml --out RIG.yaml
+//       [--depth-scale] [--intrinsics] [--no-depth] [--plain] [--min-placements N]
+//       [--true-rig TRUE.yaml] [--report REPORT.yaml]
+//
+// OBS.yaml is an observations file (docs/calibration.md): written by `capture_calibration` from a
+// bag recorded with launch/calibrate.launch, by `simulate_calibration`, or by a script from another
+// tool's corner files. Prints a table per camera (placements, corners, reprojection rms, depth
+// offset and its spread) and a verdict; with --true-rig, the errors against the truth.
+// Exit status: 0 calibrated; 1 refused (the message names the camera and what to record);
+// 2 bad command line; 3 calibrated but a camera's figures are outside the verdict's limits.
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <optional>
+#include <string>
+
+#include "drill_pipe_pose/core/calibration/solver.hpp"
+#include "drill_pipe_pose/core/errors.hpp"
+#include "drill_pipe_pose/core/rig_calibration.hpp"
+#include "cli.hpp"
+
+using namespace drill_pipe_pose;
+using namespace drill_pipe_pose::calibration;
+
+namespace {
+
+constexpr double kDeg = 180.0 / M_PI;
+
+/// The verdict's limits per camera: corner rms [px] (a sharp corner in a Kinect v2 HD image:
+/// 0.1-0.3 px on the simulator's calibration scene; beyond 0.5 px the images are blurred or the
+/// intrinsics are off) and depth rms [m] (a Kinect v2 at 5-8 m: 5-15 mm).
+constexpr double kGoodCornerRms = 0.5, kGoodDepthRms = 0.02;
+
+bool printTable(const CalibrationResult& r, const ObservationSet& set) {
+  std::printf("%-8s %10s %8s %9s %10s %13s %12s %9s\n", "camera", "placements", "corners",
+              "rms [px]", "depth n", "offset [mm]", "scale", "rms [mm]");
+  bool good = true;
+  for (const CameraResult& c : r.cameras) {
+    const bool ok = c.corner_rms_px <= kGoodCornerRms &&
+                    (c.depth_samples == 0 || c.depth_rms <= kGoodDepthRms);
+    good &= ok;
+    std::printf("%-8s %10d %8d %9.3f %10d %13.2f %12.5f %9.2f%s\n", c.name.c_str(), c.placements,
+                c.corners, c.corner_rms_px, c.depth_samples, c.depth_offset * 1e3, c.depth_scale,
+                c.depth_rms * 1e3, ok ? "" : "   <- check");
+  }
+  std::printf("corner rms %.3f px over all; %zu observations rejected, %d corners dropped",
+              r.corner_rms_px, r.rejected.size(), r.dropped_corners);
+  if (set.target.type == TargetGeometry::Type::kChessboard)
+    std::printf(", %d observations' corner order reversed", r.reversed_observations);
+  std::printf("; solved in %.1f s\n", r.seconds);
+  for (const auto& rej : r.rejected)
+    std::printf("  rejected: %s placement %d: %s\n", rej.camera.c_str(), rej.placement,
+                rej.reason.c_str());
+  return good;
+}
+
+void printComparison(const RigComparison& cmp) {
+  std::printf("\nagainst the true rig (after the best rigid alignment; anchoring apart):\n");
+  std::printf("%-8s %14s %14s %16s %14s\n", "camera", "position [mm]", "rotation [deg]",
+              "depth offset [mm]", "scale [%]");
+  double max_t = 0, max_r = 0, max_d = 0, max_s = 0;
+  for (const auto& c : cmp.cameras) {
+    std::printf("%-8s %14.2f %14.4f %16.2f %14.3f\n", c.name.c_str(), c.translation_error * 1e3,
+                c.rotation_error * kDeg, c.depth_offset_error * 1e3, c.depth_scale_error * 100);
+    max_t = std::max(max_t, c.translation_error);
+    max_r = std::max(max_r, c.rotation_error);
+    max_d = std::max(max_d, std::abs(c.depth_offset_error));
+    max_s = std::max(max_s, std::abs(c.depth_scale_error));
+  }
+  std::printf("max: position %.2f mm, rotation %.4f deg, depth offset %.2f mm, scale %.3f %%\n",
+              max_t * 1e3, max_r * kDeg, max_d * 1e3, max_s * 100);
+  std::printf("anchoring: %.2f mm, %.4f deg\n", cmp.anchor_translation * 1e3,
+              cmp.anchor_rotation * kDeg);
+}
+
+void writeReport(const std::string& path, const CalibrationResult& r,
+                 const std::optional<RigComparison>& cmp) {
+  std::ofstream f(path);
+  if (!f) fail("report file '", path, "' cannot be written");
+  f << "seconds: " << r.seconds << "\ncorner_rms_px: " << r.corner_rms_px
+    << "\nrejected: " << r.rejected.size() << "\nreversed: " << r.reversed_observations
+    << "\ncameras:\n";
+  for (size_t i = 0; i < r.cameras.size(); ++i) {
+    const CameraResult& c = r.cameras[i];
+    f << "  - {name: " << c.name << ", placements: " << c.placements << ", corners: " << c.corners
+      << ", corner_rms_px: " << c.corner_rms_px << ", depth_offset: " << c.depth_offset
+      << ", depth_scale: " << c.depth_scale << ", depth_rms: " << c.depth_rms
+      << ", sigma_depth_offset: " << c.sigma_depth_offset << ", intrinsics: {fx: " << c.intrinsics.fx
+      << ", fy: " << c.intrinsics.fy << ", cx: " << c.intrinsics.cx << ", cy: " << c.intrinsics.cy
+      << ", D: [" << c.intrinsics.D[0] << ", " << c.intrinsics.D[1] << ", " << c.intrinsics.D[2]
+      << ", " << c.intrinsics.D[3] << ", " << c.intrinsics.D[4] << "]}";
+    if (cmp)
+      f << ", translation_error: " << cmp->cameras[i].translation_error
+        << ", rotation_error: " << cmp->cameras[i].rotation_error
+        << ", depth_offset_error: " << cmp->cameras[i].depth_offset_error
+        << ", depth_scale_error: " << cmp->cameras[i].depth_scale_error;
+    f << "}\n";
+  }
+  if (cmp)
+    f << "anchor_translation: " << cmp->anchor_translation
+      << "\nanchor_rotation: " << cmp->anchor_rotation << "\n";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string obs_path, out_path, true_path, report_path;
+  bool depth_scale = false, intrinsics = false, no_depth = false, plain = false;
+  SolverOptions opt;
+  CLI::App app{"Calibrates a rig (every camera's pose in the world, its depth offset) from an "
+               "observations file of a calibration target, and writes the rig file.",
+               "calibrate_rig"};
+  tools::configureApp(app);
+  app.add_option("--observations", obs_path, "observations file (YAML)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  app.add_option("--out", out_path, "rig file to write (YAML, the rig file schema)");
+  app.add_flag("--depth-scale", depth_scale,
+               "estimate each depth camera's scale too (an uncalibrated Kinect v2: ~2 %)");
+  app.add_flag("--intrinsics", intrinsics, "estimate every camera's intrinsics too");
+  app.add_flag("--no-depth", no_depth, "ignore depth samples (depth offsets stay 0)");
+  app.add_flag("--plain", plain,
+               "plain least squares over every observation: no robust loss, no outlier pass "
+               "(to compare with tools such as OpenCV's stereoCalibrate)");
+  app.add_option("--min-placements", opt.min_placements,
+                 "placements a camera must see the target in")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--true-rig", true_path, "true rig file to score against (simulation)")
+      ->check(CLI::ExistingFile);
+  app.add_option("--report", report_path, "write the figures as YAML");
+  tools::parseOrExit(app, argc, argv);
+  opt.estimate_depth_scale = depth_scale;
+  opt.estimate_intrinsics = intrinsics;
+  opt.estimate_depth_offset = !no_depth;
+  opt.robust = !plain;
+  try {
+    const ObservationSet set = loadObservations(obs_path);
+    std::fprintf(stderr, "calibrate_rig: %zu cameras, %zu observations from %s\n",
+                 set.cameras.size(), set.observations.size(), obs_path.c_str());
+    const CalibrationResult r = calibrate(set, opt);
+    const bool good = printTable(r, set);
+    if (intrinsics)
+      for (size_t c = 0; c < r.cameras.size(); ++c) {
+        const Intrinsics &a = set.cameras[c].intrinsics, &b = r.cameras[c].intrinsics;
+        std::printf("%s intrinsics: fx %.2f (%+.2f) fy %.2f (%+.2f) cx %.2f (%+.2f) cy %.2f (%+.2f)"
+                    " D [%.4f %.4f %.4f %.4f %.4f]\n",
+                    r.cameras[c].name.c_str(), b.fx, b.fx - a.fx, b.fy, b.fy - a.fy, b.cx, b.cx - a.cx, b.cy,
+                    b.cy - a.cy, b.D[0], b.D[1], b.D[2], b.D[3], b.D[4]);
+      }
+    std::optional<RigComparison> cmp;
+    if (!true_path.empty()) {
+      cmp = compareRigs(r.rig(set), loadRigCalibration(true_path));
+      printComparison(*cmp);
+    }
+    if (!out_path.empty()) {
+      std::ofstream f(out_path);
+      if (!f) fail("rig file '", out_path, "' cannot be written");
+      f << "# Written by calibrate_rig from " << obs_path << ": corner rms " << r.corner_rms_px
+        << " px\n"
+        << rigCalibrationToYaml(r.rig(set));
+      std::printf("wrote %s\n", out_path.c_str());
+    }
+    if (!report_path.empty()) writeReport(report_path, r, cmp);
+    std::printf("verdict: %s\n", good ? "CALIBRATED" : "CALIBRATED, but check the marked cameras");
+    return good ? 0 : 3;
+  } catch (const InputError& e) {
+    std::fprintf(stderr, "calibrate_rig: %s\n", e.what());
+    std::printf("verdict: REFUSED\n");
+    return 1;
+  }
+}
