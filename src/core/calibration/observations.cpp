@@ -137,15 +137,32 @@ Observation observation(const YAML::Node& n, const ObservationSet& set, size_t i
   return o;
 }
 
-}  // namespace
+/// The anchor (placement or camera at a known world pose) into set->anchor; the camera's
+/// presence is the caller's to check.
+void readAnchor(const YAML::Node& anchor, const std::string& source, ObservationSet* set) {
+  if (!anchor) fail(source, ": field 'anchor' is missing (placement or camera at a known world pose)");
+  rejectUnknown(anchor, {"placement", "camera", "translation", "rotation"}, source + ": anchor");
+  if (anchor["placement"].IsDefined() == anchor["camera"].IsDefined())
+    fail(source, ": anchor needs exactly one of 'placement' and 'camera'");
+  if (anchor["placement"])
+    set->anchor.placement = static_cast<int>(number(anchor["placement"], source + ": anchor placement"));
+  else
+    set->anchor.camera = anchor["camera"].as<std::string>();
+  set->anchor.T_world_anchor = pose(anchor, source + ": anchor");
+}
 
-ObservationSet parseObservations(const std::string& text, const std::string& source) {
-  YAML::Node root;
+YAML::Node loadYaml(const std::string& text, const std::string& source) {
   try {
-    root = YAML::Load(text);
+    return YAML::Load(text);
   } catch (const YAML::Exception& e) {
     fail(source, ": not valid YAML: ", e.what());
   }
+}
+
+}  // namespace
+
+ObservationSet parseObservations(const std::string& text, const std::string& source) {
+  const YAML::Node root = loadYaml(text, source);
   rejectUnknown(root, {"world_frame", "target", "anchor", "cameras", "observations"}, source);
   ObservationSet set;
   if (root["world_frame"]) set.world_frame = root["world_frame"].as<std::string>();
@@ -171,24 +188,33 @@ ObservationSet parseObservations(const std::string& text, const std::string& sou
     if (c["T_camera_depth"]) cam.T_camera_depth = pose(c["T_camera_depth"], where + " T_camera_depth");
     set.cameras.push_back(cam);
   }
-  const YAML::Node anchor = root["anchor"];
-  if (!anchor) fail(source, ": field 'anchor' is missing (placement or camera at a known world pose)");
-  rejectUnknown(anchor, {"placement", "camera", "translation", "rotation"}, source + ": anchor");
-  if (anchor["placement"].IsDefined() == anchor["camera"].IsDefined())
-    fail(source, ": anchor needs exactly one of 'placement' and 'camera'");
-  if (anchor["placement"])
-    set.anchor.placement = static_cast<int>(number(anchor["placement"], source + ": anchor placement"));
-  else {
-    set.anchor.camera = anchor["camera"].as<std::string>();
-    if (set.findCamera(*set.anchor.camera) < 0)
-      fail(source, ": anchor camera '", *set.anchor.camera, "' is not in 'cameras'");
-  }
-  set.anchor.T_world_anchor = pose(anchor, source + ": anchor");
+  readAnchor(root["anchor"], source, &set);
+  if (set.anchor.camera && set.findCamera(*set.anchor.camera) < 0)
+    fail(source, ": anchor camera '", *set.anchor.camera, "' is not in 'cameras'");
   const YAML::Node obs = root["observations"];
   if (obs && !obs.IsSequence()) fail(source, ": 'observations' must be a list");
   for (size_t i = 0; obs && i < obs.size(); ++i)
     set.observations.push_back(observation(obs[i], set, i, source));
   return set;
+}
+
+ObservationSet parseCalibrationConfig(const std::string& text, const std::string& source) {
+  const YAML::Node root = loadYaml(text, source);
+  rejectUnknown(root, {"world_frame", "target", "anchor"}, source);
+  ObservationSet set;
+  if (root["world_frame"]) set.world_frame = root["world_frame"].as<std::string>();
+  if (!root["target"]) fail(source, ": field 'target' is missing");
+  set.target = target(root["target"], source + ": target");
+  readAnchor(root["anchor"], source, &set);
+  return set;
+}
+
+ObservationSet loadCalibrationConfig(const std::string& path) {
+  std::ifstream f(path);
+  if (!f) fail("calibration config '", path, "' cannot be read");
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return parseCalibrationConfig(ss.str(), path);
 }
 
 ObservationSet loadObservations(const std::string& path) {

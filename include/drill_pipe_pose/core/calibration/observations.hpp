@@ -94,4 +94,11 @@ ObservationSet parseObservations(const std::string& yaml_text, const std::string
 std::string observationsToYaml(const ObservationSet& set);
 void saveObservations(const ObservationSet& set, const std::string& path);
 
+/// A calibration config (config/calibration/*.yaml): the `world_frame`, `target` and `anchor` of
+/// an observations file, nothing else; the cameras and observations come from a recording. An
+/// anchor camera is not checked here (the caller knows the cameras). Throws InputError naming
+/// the file and the field.
+ObservationSet loadCalibrationConfig(const std::string& path);
+ObservationSet parseCalibrationConfig(const std::string& yaml_text, const std::string& source);
+
 }  // namespace drill_pipe_pose::calibration
