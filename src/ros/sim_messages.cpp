@@ -2,7 +2,10 @@
 
 #include <tf2_eigen/tf2_eigen.h>
 
+#include <opencv2/imgproc.hpp>
+
 #include "drill_pipe_pose/core/conventions.hpp"
+#include "drill_pipe_pose/core/errors.hpp"
 #include "drill_pipe_pose/ros/conversions.hpp"
 
 namespace drill_pipe_pose {
@@ -52,6 +55,32 @@ KinectTopics simKinectTopics(const sim::RigSimulator& sim, size_t camera,
     k.images.emplace_back(conventions::colorImageTopic(cam), std::move(img));
     k.infos.emplace_back(conventions::colorInfoTopic(cam), toMsg(f.color_info, f.stamp_ns));
   }
+  k.images.emplace_back(conventions::depthImageTopic(cam),
+                        toMsg(f.depth, f.depth_stamp_ns, f.depth_frame_id));
+  k.infos.emplace_back(conventions::depthInfoTopic(cam), toMsg(f.depth_info, f.depth_stamp_ns));
+  return k;
+}
+
+KinectTopics simCalibrationTopics(const sim::RigSimulator& sim, size_t camera,
+                                  const sim::RigSimulator::Frame& frame) {
+  const std::string& cam = sim.cameraName(camera);
+  if (frame.bgr.empty()) fail("camera ", cam, ": the frame has no colour image to record");
+  const SensorFrameData& f = frame.sensor_frame;
+  const cv::Mat bgr(static_cast<int>(frame.color_height), static_cast<int>(frame.color_width),
+                    CV_8UC3, const_cast<uint8_t*>(frame.bgr.data()));
+  cv::Mat gray;
+  cv::cvtColor(bgr, gray, cv::COLOR_BGR2GRAY);
+  sensor_msgs::Image img;
+  img.header.stamp = fromNs(f.stamp_ns);
+  img.header.frame_id = f.frame_id;
+  img.width = frame.color_width;
+  img.height = frame.color_height;
+  img.encoding = "mono8";
+  img.step = frame.color_width;
+  img.data.assign(gray.data, gray.data + gray.total());
+  KinectTopics k;
+  k.images.emplace_back(conventions::hdMonoImageTopic(cam), std::move(img));
+  k.infos.emplace_back(conventions::hdInfoTopic(cam), toMsg(f.color_info, f.stamp_ns));
   k.images.emplace_back(conventions::depthImageTopic(cam),
                         toMsg(f.depth, f.depth_stamp_ns, f.depth_frame_id));
   k.infos.emplace_back(conventions::depthInfoTopic(cam), toMsg(f.depth_info, f.depth_stamp_ns));

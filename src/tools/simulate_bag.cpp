@@ -4,6 +4,7 @@
 //       [--rig config/rigs/thesis_lab.yaml] [--duration 10] [--start 0] [--profile NAME]
 //       [--seed 1] [--no-detection] [--color] [--crop] [--sensors config/sensors] [--quiet]
 //       [--effect-off EFFECT]... [--model fitted|before-fit|additive] [--true-rig FILE]
+//       [--hd-mono] [--fps N]
 //
 // --crop sends each SensorFrame's depth cropped to its boxes' frustum (roi), as a bandwidth-saving
 // sensor node does: bags are ~100x smaller and the estimator's poses are the same.
@@ -21,6 +22,13 @@
 // the rendered extrinsics and each camera's depth_scale and depth_offset, the offset including the
 // weak-return brightness bias at the rig's range (what a depth calibration there would find), for
 // scoring a calibration or running the estimator (parameter rig) with perfect corrections.
+// --hd-mono writes what the rig calibration records (launch/calibrate.launch) instead of the
+// SensorFrames: per camera the HD grey image <cam>/hd/image_mono_rect (mono8, from colour rendered
+// at 1920x1080) with <cam>/hd/camera_info, and <cam>/sd/image_depth_rect with <cam>/sd/camera_info
+// (about 2.3 MB per frame before compression: use it with --fps). --fps N keeps every k-th capture
+// of each camera, k = round(frame rate / N) (N frames per second per camera), as a recorder that
+// throttles does; the other captures are not rendered. Without these two flags the bag is the same
+// as before they existed.
 // Exit status 0; 1 on bad input files or an unwritable bag; 2 on a bad command line.
 #include <drill_pipe_pose/SensorFrame.h>
 #include <ros/package.h>
@@ -28,6 +36,7 @@
 #include <tf2_msgs/TFMessage.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
@@ -66,23 +75,46 @@ void writeStaticTf(const sim::RigSimulator& sim, double start, rosbag::Bag* bag)
   bag->write("/tf_static", fromNs(sim.stampNs(start)), tf_static, latched);
 }
 
-/// Renders every capture in [start, start + duration) into the bag (SensorFrames, cropped with
-/// `crop`; the colour topics with the simulator's colour option; ground truth), with a progress
-/// bar unless `quiet`. Returns the frames written.
-size_t writeFrames(sim::RigSimulator& sim, double start, double duration, bool crop, bool quiet,
+struct FrameOptions {
+  bool crop = false;     ///< SensorFrames' depth cropped to their boxes' frustum
+  bool quiet = false;    ///< no progress bar
+  bool hd_mono = false;  ///< the calibration's topics instead of SensorFrames
+  uint64_t every = 1;    ///< keep every k-th capture of each camera
+};
+
+/// Every `every`-th capture of each camera in [start, start + duration).
+std::vector<sim::Capture> keptCaptures(const sim::RigSimulator& sim, double start,
+                                       double duration, uint64_t every) {
+  std::vector<sim::Capture> out;
+  for (const sim::Capture& c : sim.captures(start, start + duration))
+    if (c.frame_index % every == 0) out.push_back(c);
+  return out;
+}
+
+/// Renders the captures in [start, start + duration) into the bag (SensorFrames, cropped with
+/// `crop`; the colour topics with the simulator's colour option; or with `hd_mono` only the
+/// calibration's topics; ground truth), with a progress bar unless `quiet`. Returns the frames
+/// written.
+size_t writeFrames(sim::RigSimulator& sim, double start, double duration, const FrameOptions& o,
                    rosbag::Bag* bag) {
-  const auto captures = sim.captures(start, start + duration);
+  const auto captures = keptCaptures(sim, start, duration, o.every);
   const auto wall0 = std::chrono::steady_clock::now();
   size_t done = 0;
   for (const auto& c : captures) {
     sim::RigSimulator::Frame frame = sim.render(c.camera, c.t, c.frame_index);
     const ros::Time stamp = fromNs(frame.sensor_frame.stamp_ns);
     const std::string& cam = sim.cameraName(c.camera);
-    const SensorFrameData& sf =
-        crop ? cropDepthToBoxes(frame.sensor_frame, sim.T_link_depth(c.camera))
-             : frame.sensor_frame;
-    bag->write("/" + conventions::sensorFrameTopic(cam), stamp, toMsg(sf));
-    if (sim.options().color) {
+    if (o.hd_mono) {
+      const KinectTopics k = simCalibrationTopics(sim, c.camera, frame);
+      for (const auto& [topic, img] : k.images) bag->write("/" + topic, stamp, img);
+      for (const auto& [topic, info] : k.infos) bag->write("/" + topic, stamp, info);
+    } else {
+      const SensorFrameData& sf =
+          o.crop ? cropDepthToBoxes(frame.sensor_frame, sim.T_link_depth(c.camera))
+                 : frame.sensor_frame;
+      bag->write("/" + conventions::sensorFrameTopic(cam), stamp, toMsg(sf));
+    }
+    if (sim.options().color && !o.hd_mono) {
       const KinectTopics k = simKinectTopics(sim, c.camera, frame);
       for (const auto& [topic, img] : k.images) bag->write("/" + topic, stamp, img);
       for (const auto& [topic, info] : k.infos) bag->write("/" + topic, stamp, info);
@@ -92,7 +124,7 @@ size_t writeFrames(sim::RigSimulator& sim, double start, double duration, bool c
       const double wall =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
       progress(c.t - start, duration, done / (double)sim.numCameras() / std::max(wall, 1e-9),
-               quiet);
+               o.quiet);
     }
   }
   return done;
@@ -115,7 +147,8 @@ int main(int argc, char** argv) {
   const std::string pkg = ros::package::getPath("drill_pipe_pose");
   std::string scene, out, rig = pkg + "/config/rigs/thesis_lab.yaml", true_rig;
   double duration = 10.0, start = 0.0;
-  bool quiet = false, crop = false;
+  FrameOptions fo;
+  double fps = 0.0;
   std::vector<std::string> effects_off;
   std::string model = "fitted";
   sim::SimulatorOptions opt;
@@ -152,14 +185,24 @@ int main(int argc, char** argv) {
   app.add_option("--seed", opt.seed, "random seed of the simulation")->capture_default_str();
   app.add_flag_function("--no-detection", [&](int64_t) { opt.simulated_detection = false; },
                "send no simulated detections (boxes) in the SensorFrames");
-  app.add_flag("--color", opt.color,
-               "also write the kinect2_bridge-style colour and depth topics (large bags)");
-  app.add_flag("--crop", crop,
+  auto* color = app.add_flag(
+      "--color", opt.color,
+      "also write the kinect2_bridge-style colour and depth topics (large bags)");
+  app.add_flag("--hd-mono", fo.hd_mono,
+               "write what the rig calibration records instead of SensorFrames: the HD grey "
+               "image and its camera_info, the SD depth image and its camera_info (large bags: "
+               "use --fps)")
+      ->excludes(color);
+  app.add_option("--fps", fps,
+                 "frames per second per camera to keep (every k-th capture, k = round(frame "
+                 "rate / fps)); default: every capture")
+      ->check(CLI::PositiveNumber);
+  app.add_flag("--crop", fo.crop,
                "crop each SensorFrame's depth to its boxes' frustum (~100x smaller)");
   app.add_option("--sensors", opt.sensor_config_dir, "folder of the sensor intrinsics files")
       ->capture_default_str()
       ->check(CLI::ExistingDirectory);
-  app.add_flag("--quiet", quiet, "no progress bar");
+  app.add_flag("--quiet", fo.quiet, "no progress bar");
   app.add_option("--effect-off", effects_off,
                  "switch one of the profile's sensor effects off by name (repeatable)")
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
@@ -183,8 +226,16 @@ int main(int argc, char** argv) {
       for (const std::string& e : effects_off) sim::switchOffEffect(&fx, e);
       opt.effects = fx;
     }
+    if (fo.hd_mono) {
+      opt.color = true;
+      opt.color_scale = 2;  // the Kinect v2's HD colour image
+      opt.simulated_detection = false;
+    }
     auto simulator = sim::loadScenario(rig, scene, opt);
     sim::RigSimulator& sim = *simulator;
+    if (fps > 0)
+      fo.every = static_cast<uint64_t>(
+          std::max(1.0, std::round(sim.sensor(0).frame_rate_hz / fps)));
     rosbag::Bag bag;
     try {
       bag.open(out, rosbag::bagmode::Write);
@@ -200,11 +251,11 @@ int main(int argc, char** argv) {
     if (!true_rig.empty()) writeTrueRig(sim, true_rig);
 
     const auto wall0 = std::chrono::steady_clock::now();
-    const size_t frames = writeFrames(sim, start, duration, crop, quiet, &bag);
+    const size_t frames = writeFrames(sim, start, duration, fo, &bag);
     bag.close();
     const double wall =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
-    if (!quiet) std::fprintf(stderr, "\n");
+    if (!fo.quiet) std::fprintf(stderr, "\n");
     std::printf(
         "simulate_bag: wrote %zu frames (%.1f s of %zu cameras) in %.1f s: %.2f six-camera "
         "frames per second\n",

@@ -23,6 +23,16 @@ inline std::string colorImageTopic(const std::string& cam) {
 inline std::string colorInfoTopic(const std::string& cam) {
   return cam + "/qhd/camera_info";
 }
+/// The HD (1920x1080) streams, which the rig calibration records (docs/calibration.md).
+inline std::string hdColorImageTopic(const std::string& cam) {
+  return cam + "/hd/image_color_rect";
+}
+inline std::string hdMonoImageTopic(const std::string& cam) {
+  return cam + "/hd/image_mono_rect";
+}
+inline std::string hdInfoTopic(const std::string& cam) {
+  return cam + "/hd/camera_info";
+}
 inline std::string depthImageTopic(const std::string& cam) {
   return cam + "/sd/image_depth_rect";
 }
