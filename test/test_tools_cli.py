@@ -24,6 +24,9 @@ BIN_DIR = None
 
 # Every option of each tool, as before the move to CLI11 (names must never change silently).
 OPTIONS = {
+    "calibrate_rig": ["--observations", "--bag", "--config", "--image-topic", "--save-observations",
+                      "--out", "--depth-scale", "--intrinsics", "--no-depth", "--plain",
+                      "--min-placements", "--true-rig", "--report"],
     "bench_estimator": ["--method", "--max-cycles", "--work-zone", "--csv", "--label",
                         "--skip-camera", "--no-temporal", "--no-tracking", "--threads",
                         "--vote-fraction", "--box-reach", "--confirmations",
@@ -44,7 +47,8 @@ OPTIONS = {
                        "--format", "--negatives", "--print-roi", "--quiet"],
     "rig_info": ["--target", "--zone"],
     "simulate_bag": ["--scene", "--out", "--rig", "--duration", "--start", "--profile", "--seed",
-                     "--no-detection", "--color", "--crop", "--sensors", "--quiet", "--effect-off"],
+                     "--no-detection", "--color", "--crop", "--sensors", "--quiet", "--effect-off",
+                     "--hd-mono", "--fps"],
     "simulate_calibration": ["--rig", "--scene", "--profile", "--seed", "--out", "--true-rig",
                              "--frames-per-placement", "--sensors"],
 }
@@ -97,6 +101,7 @@ class ToolsCli(unittest.TestCase):
         f, d = self.file, self.tmp
         cases = {
             "bench_estimator": ("--threads", [f, "--threads", "0"]),
+            "calibrate_rig": ("--min-placements", ["--observations", f, "--min-placements", "0"]),
             "detect_target": ("--square", [f, "--square", "0"]),
             "detector_eval": ("--conf", ["--model", f, "--data", d, "--conf", "2"]),
             "evaluate": ("--rate", [f, "--rate", "abc"]),

@@ -1,12 +1,18 @@
 // calibrate_rig: the rig file from what the cameras saw of the calibration target.
 //
 //   rosrun drill_pipe_pose calibrate_rig --observations OBS.yaml --out RIG.yaml
-//       [--depth-scale] [--intrinsics] [--no-depth] [--plain] [--min-placements N]
+//   rosrun drill_pipe_pose calibrate_rig --bag BAG --config CAL.yaml --out RIG.yaml
+//       [--image-topic hd/image_mono_rect] [--save-observations OBS.yaml]
+//   both: [--depth-scale] [--intrinsics] [--no-depth] [--plain] [--min-placements N]
 //       [--true-rig TRUE.yaml] [--report REPORT.yaml]
 //
-// OBS.yaml is an observations file (docs/calibration.md): written by `capture_calibration` from a
-// bag recorded with launch/calibrate.launch, by `simulate_calibration`, or by a script from another
-// tool's corner files. Prints a table per camera (placements, corners, reprojection rms, depth
+// OBS.yaml is an observations file (docs/calibration.md): written by --save-observations, by
+// `simulate_calibration`, or by a script from another tool's corner files. BAG is a recording of
+// launch/calibrate.launch (or simulate_bag --hd-mono): every camera's image + depth pairs are read
+// (progress on stderr), the target is found in each (core/calibration/capture.hpp), frames taken
+// while it moved are skipped and the still ones grouped into placements
+// (core/calibration/placements.hpp); CAL.yaml (config/calibration/*.yaml) gives the target and the
+// anchor (placement 0 = the first still placement). Prints a table per camera (placements, corners, reprojection rms, depth
 // offset and its spread) and a verdict; with --true-rig, the errors against the truth.
 // Exit status: 0 calibrated; 1 refused (the message names the camera and what to record);
 // 2 bad command line; 3 calibrated but a camera's figures are outside the verdict's limits.
@@ -17,9 +23,11 @@
 #include <optional>
 #include <string>
 
+#include "drill_pipe_pose/core/calibration/placements.hpp"
 #include "drill_pipe_pose/core/calibration/solver.hpp"
 #include "drill_pipe_pose/core/errors.hpp"
 #include "drill_pipe_pose/core/rig_calibration.hpp"
+#include "drill_pipe_pose/ros/calibration_bag.hpp"
 #include "cli.hpp"
 
 using namespace drill_pipe_pose;
@@ -104,19 +112,91 @@ void writeReport(const std::string& path, const CalibrationResult& r,
       << "\nanchor_rotation: " << cmp->anchor_rotation << "\n";
 }
 
+void printIntrinsics(const CalibrationResult& r, const ObservationSet& set) {
+  for (size_t c = 0; c < r.cameras.size(); ++c) {
+    const Intrinsics &a = set.cameras[c].intrinsics, &b = r.cameras[c].intrinsics;
+    std::printf("%s intrinsics: fx %.2f (%+.2f) fy %.2f (%+.2f) cx %.2f (%+.2f) cy %.2f (%+.2f)"
+                " D [%.4f %.4f %.4f %.4f %.4f]\n",
+                r.cameras[c].name.c_str(), b.fx, b.fx - a.fx, b.fy, b.fy - a.fy, b.cx, b.cx - a.cx,
+                b.cy, b.cy - a.cy, b.D[0], b.D[1], b.D[2], b.D[3], b.D[4]);
+  }
+}
+
+void writeRig(const std::string& path, const std::string& source, const CalibrationResult& r,
+              const ObservationSet& set) {
+  std::ofstream f(path);
+  if (!f) fail("rig file '", path, "' cannot be written");
+  f << "# Written by calibrate_rig from " << source << ": corner rms " << r.corner_rms_px
+    << " px\n"
+    << rigCalibrationToYaml(r.rig(set));
+  std::printf("wrote %s\n", path.c_str());
+}
+
+/// The observations of a recorded calibration: the bag's frames, still ones grouped into
+/// placements, one observation per camera and placement; CAL.yaml's target and anchor.
+ObservationSet observationsFromBag(const std::string& bag, const std::string& config,
+                                   const CalibrationBagOptions& options) {
+  ObservationSet set = loadCalibrationConfig(config);
+  std::fprintf(stderr, "calibrate_rig: reading %s\n", bag.c_str());
+  const CalibrationBagFrames read = readCalibrationBag(
+      bag, set.target, options,
+      [](const std::string& line) { std::fprintf(stderr, "calibrate_rig: %s\n", line.c_str()); });
+  set.cameras = read.cameras;
+  if (set.anchor.camera && set.findCamera(*set.anchor.camera) < 0)
+    fail(config, ": anchor camera '", *set.anchor.camera, "' is not in the bag ", bag);
+  const PlacementGroups groups = groupPlacements(read.frames);
+  set.observations = selectObservations(read.frames, groups);
+  std::fprintf(stderr, "calibrate_rig: %d still placements (frame period %.3f s)\n", groups.count,
+               groups.frame_period);
+  for (size_t c = 0; c < set.cameras.size(); ++c) {
+    int seen = 0, still = 0;
+    for (size_t i = 0; i < read.frames.size(); ++i)
+      if (read.frames[i].camera == set.cameras[c].name) {
+        seen += !read.frames[i].corners.empty();
+        still += groups.placement[i] >= 0;
+      }
+    int placements = 0;
+    for (const Observation& o : set.observations) placements += o.camera == set.cameras[c].name;
+    std::fprintf(stderr,
+                 "calibrate_rig: %s: %d frames, target in %d, still %d, at %d placements\n",
+                 set.cameras[c].name.c_str(), read.frames_per_camera[c], seen, still, placements);
+  }
+  if (groups.count == 0)
+    fail("bag '", bag, "': no still frame of the target in any camera (a frame is still when its "
+         "corners agree with the camera's previous frame within 0.5 px)");
+  return set;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string obs_path, out_path, true_path, report_path;
+  std::string obs_path, bag_path, config_path, save_path, out_path, true_path, report_path;
+  CalibrationBagOptions bag_opt;
   bool depth_scale = false, intrinsics = false, no_depth = false, plain = false;
   SolverOptions opt;
   CLI::App app{"Calibrates a rig (every camera's pose in the world, its depth offset) from an "
                "observations file of a calibration target, and writes the rig file.",
                "calibrate_rig"};
   tools::configureApp(app);
-  app.add_option("--observations", obs_path, "observations file (YAML)")
-      ->required()
-      ->check(CLI::ExistingFile);
+  auto* obs_opt = app.add_option("--observations", obs_path, "observations file (YAML)")
+                      ->check(CLI::ExistingFile);
+  auto* bag_o = app.add_option("--bag", bag_path,
+                               "recorded calibration (launch/calibrate.launch) instead of "
+                               "--observations")
+                    ->check(CLI::ExistingFile)
+                    ->excludes(obs_opt);
+  app.add_option("--config", config_path,
+                 "with --bag: calibration config (target and anchor), e.g. "
+                 "config/calibration/thesis_lab.yaml")
+      ->check(CLI::ExistingFile)
+      ->needs(bag_o);
+  app.add_option("--image-topic", bag_opt.image_topic,
+                 "with --bag: the image the target is found in, relative to the camera")
+      ->capture_default_str()
+      ->needs(bag_o);
+  app.add_option("--save-observations", save_path,
+                 "with --bag: write the observations extracted from it (YAML)")
+      ->needs(bag_o);
   app.add_option("--out", out_path, "rig file to write (YAML, the rig file schema)");
   app.add_flag("--depth-scale", depth_scale,
                "estimate each depth camera's scale too (an uncalibrated Kinect v2: ~2 %)");
@@ -132,37 +212,31 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   app.add_option("--report", report_path, "write the figures as YAML");
   tools::parseOrExit(app, argc, argv);
+  if (obs_path.empty() == bag_path.empty() || (!bag_path.empty() && config_path.empty())) {
+    std::fprintf(stderr, "calibrate_rig: give --observations OBS.yaml, or --bag BAG with "
+                         "--config CAL.yaml\n");
+    return 2;
+  }
   opt.estimate_depth_scale = depth_scale;
   opt.estimate_intrinsics = intrinsics;
   opt.estimate_depth_offset = !no_depth;
   opt.robust = !plain;
   try {
-    const ObservationSet set = loadObservations(obs_path);
+    const std::string source = bag_path.empty() ? obs_path : bag_path;
+    const ObservationSet set = bag_path.empty() ? loadObservations(obs_path)
+                                                : observationsFromBag(bag_path, config_path, bag_opt);
+    if (!save_path.empty()) saveObservations(set, save_path);
     std::fprintf(stderr, "calibrate_rig: %zu cameras, %zu observations from %s\n",
-                 set.cameras.size(), set.observations.size(), obs_path.c_str());
+                 set.cameras.size(), set.observations.size(), source.c_str());
     const CalibrationResult r = calibrate(set, opt);
     const bool good = printTable(r, set);
-    if (intrinsics)
-      for (size_t c = 0; c < r.cameras.size(); ++c) {
-        const Intrinsics &a = set.cameras[c].intrinsics, &b = r.cameras[c].intrinsics;
-        std::printf("%s intrinsics: fx %.2f (%+.2f) fy %.2f (%+.2f) cx %.2f (%+.2f) cy %.2f (%+.2f)"
-                    " D [%.4f %.4f %.4f %.4f %.4f]\n",
-                    r.cameras[c].name.c_str(), b.fx, b.fx - a.fx, b.fy, b.fy - a.fy, b.cx, b.cx - a.cx, b.cy,
-                    b.cy - a.cy, b.D[0], b.D[1], b.D[2], b.D[3], b.D[4]);
-      }
+    if (intrinsics) printIntrinsics(r, set);
     std::optional<RigComparison> cmp;
     if (!true_path.empty()) {
       cmp = compareRigs(r.rig(set), loadRigCalibration(true_path));
       printComparison(*cmp);
     }
-    if (!out_path.empty()) {
-      std::ofstream f(out_path);
-      if (!f) fail("rig file '", out_path, "' cannot be written");
-      f << "# Written by calibrate_rig from " << obs_path << ": corner rms " << r.corner_rms_px
-        << " px\n"
-        << rigCalibrationToYaml(r.rig(set));
-      std::printf("wrote %s\n", out_path.c_str());
-    }
+    if (!out_path.empty()) writeRig(out_path, source, r, set);
     if (!report_path.empty()) writeReport(report_path, r, cmp);
     std::printf("verdict: %s\n", good ? "CALIBRATED" : "CALIBRATED, but check the marked cameras");
     return good ? 0 : 3;

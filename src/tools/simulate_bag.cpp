@@ -130,6 +130,23 @@ size_t writeFrames(sim::RigSimulator& sim, double start, double duration, const 
   return done;
 }
 
+/// Opens `path` for writing, LZ4-compressed.
+void openBag(const std::string& path, rosbag::Bag* bag) {
+  try {
+    bag->open(path, rosbag::bagmode::Write);
+  } catch (const rosbag::BagException& e) {
+    fail("cannot write bag '", path, "': ", e.what());
+  }
+  bag->setCompression(rosbag::compression::LZ4);
+}
+
+/// What --hd-mono needs: colour at the Kinect v2's HD resolution, no simulated detections.
+void renderForCalibration(sim::SimulatorOptions* opt) {
+  opt->color = true;
+  opt->color_scale = 2;
+  opt->simulated_detection = false;
+}
+
 /// Writes the simulated rig's truth as a rig file (RigSimulator::trueRig).
 void writeTrueRig(const sim::RigSimulator& sim, const std::string& path) {
   std::ofstream f(path);
@@ -226,23 +243,14 @@ int main(int argc, char** argv) {
       for (const std::string& e : effects_off) sim::switchOffEffect(&fx, e);
       opt.effects = fx;
     }
-    if (fo.hd_mono) {
-      opt.color = true;
-      opt.color_scale = 2;  // the Kinect v2's HD colour image
-      opt.simulated_detection = false;
-    }
+    if (fo.hd_mono) renderForCalibration(&opt);
     auto simulator = sim::loadScenario(rig, scene, opt);
     sim::RigSimulator& sim = *simulator;
     if (fps > 0)
       fo.every = static_cast<uint64_t>(
           std::max(1.0, std::round(sim.sensor(0).frame_rate_hz / fps)));
     rosbag::Bag bag;
-    try {
-      bag.open(out, rosbag::bagmode::Write);
-    } catch (const rosbag::BagException& e) {
-      fail("cannot write bag '", out, "': ", e.what());
-    }
-    bag.setCompression(rosbag::compression::LZ4);
+    openBag(out, &bag);
     std::cerr << "simulate_bag: " << sim.numCameras() << " cameras, scene " << scene << ", profile "
               << opt.profile << ", seed " << opt.seed << ", " << duration << " s -> " << out
               << "\n";
