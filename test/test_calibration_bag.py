@@ -12,6 +12,7 @@
 """
 import os
 import re
+import shutil
 import signal
 import subprocess
 import sys
@@ -77,6 +78,10 @@ class CalibrationBag(unittest.TestCase):
                         "--quiet", "--true-rig", cls.true_rig, "--out", cls.sim_bag], check=True)
         print(f"simulate_bag: {time.monotonic() - t0:.1f} s, "
               f"{os.path.getsize(cls.sim_bag) / 1e6:.1f} MB", flush=True)
+
+    @classmethod
+    def tearDownClass(cls):
+        shutil.rmtree(cls.tmp, ignore_errors=True)  # two 300 MB bags
 
     def test_1_record_calibrate_replay(self):
         self.record()
