@@ -120,7 +120,8 @@ struct BumpRun {
   bool left_out = false;                       ///< the bumped camera left a fit out
 };
 
-BumpRun runBump(const std::vector<sim::CameraBump>& bumps) {
+BumpRun runBump(const std::vector<sim::CameraBump>& bumps,
+                const std::string& scene = "thesis_vertical") {
   const std::string dir = DRILL_PIPE_POSE_SOURCE_DIR;
   sim::SimulatorOptions opt;
   opt.profile = "kinect_v2_calibrated";
@@ -129,10 +130,11 @@ BumpRun runBump(const std::vector<sim::CameraBump>& bumps) {
   opt.stamp_origin_ns = 1000000000;
   opt.bumps = bumps;
   auto sim = sim::loadScenario(dir + "/config/rigs/thesis_lab.yaml",
-                               dir + "/config/scenes/thesis_vertical.yaml", opt);
+                               dir + "/config/scenes/" + scene + ".yaml", opt);
   EstimatorConfig cfg;
   cfg.work_zone.min = sim->workZone().min;
   cfg.work_zone.max = sim->workZone().max;
+  cfg.drift.leave_out = true;  // off by default (estimator_config.hpp)
   PoseEstimator est(cfg);
   BumpRun run;
   const int k0 = static_cast<int>(kStart * 30), k1 = static_cast<int>(kEnd * 30);
@@ -200,6 +202,17 @@ TEST(DriftWatchSim, UndisturbedRunRaisesNoFlag) {
   const BumpRun run = runBump({});
   EXPECT_TRUE(run.first_flag.empty()) << "seed " << kSeed << ": " << run.first_flag.begin()->first
                                       << " flagged without a bump";
+}
+
+// Disabled: it fails today (seed 61: thesis_angled flags cam2, cam1, cam5 at 10-12 mm along the
+// ray, catwalk_horizontal cam6 at +15 mm and cam3), which is why drift/leave_out is off by
+// default. Enable once the ray-shift measurement separates the sensor's incidence bias.
+TEST(DriftWatchSim, DISABLED_UndisturbedAngledAndCatwalkRunsRaiseNoFlag) {
+  for (const char* scene : {"thesis_angled", "catwalk_horizontal"}) {
+    const BumpRun run = runBump({}, scene);
+    EXPECT_TRUE(run.first_flag.empty()) << "seed " << kSeed << ", " << scene << ": "
+                                        << run.first_flag.begin()->first << " flagged";
+  }
 }
 
 TEST(DriftWatchSim, CameraMoved2cmIsFlaggedAndLeftOut) {
