@@ -160,6 +160,15 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::ExistingDirectory);
   app.add_flag("--quiet", quiet, "no progress bar");
+  std::vector<std::string> bumps;
+  app.add_option("--bump", bumps,
+                 "move camera CAM's true pose at time T [s] by DX,DY,DZ [m] (and ROLL,PITCH,YAW "
+                 "[deg]) in its <cam>_link (x right, y down, z along the view) while the "
+                 "published TF stays (a bumped camera; repeatable)")
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
+      ->expected(1)
+      ->option_text("CAM:T:DX,DY,DZ[:ROLL,PITCH,YAW] ...")
+      ->check(tools::throwingCheck("BUMP", [](const std::string& v) { sim::parseCameraBump(v); }));
   app.add_option("--effect-off", effects_off,
                  "switch one of the profile's sensor effects off by name (repeatable)")
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
@@ -183,6 +192,7 @@ int main(int argc, char** argv) {
       for (const std::string& e : effects_off) sim::switchOffEffect(&fx, e);
       opt.effects = fx;
     }
+    for (const std::string& b : bumps) opt.bumps.push_back(sim::parseCameraBump(b));
     auto simulator = sim::loadScenario(rig, scene, opt);
     sim::RigSimulator& sim = *simulator;
     rosbag::Bag bag;
