@@ -4,6 +4,7 @@
 //       [--rig config/rigs/thesis_lab.yaml] [--duration 10] [--start 0] [--profile NAME]
 //       [--seed 1] [--no-detection] [--color] [--crop] [--sensors config/sensors] [--quiet]
 //       [--effect-off EFFECT]... [--model fitted|before-fit|additive] [--true-rig FILE]
+//       [--published-rig FILE]
 //
 // --crop sends each SensorFrame's depth cropped to its boxes' frustum (roi), as a bandwidth-saving
 // sensor node does: bags are ~100x smaller and the estimator's poses are the same.
@@ -21,6 +22,8 @@
 // the rendered extrinsics and each camera's depth_scale and depth_offset, the offset including the
 // weak-return brightness bias at the rig's range (what a depth calibration there would find), for
 // scoring a calibration or running the estimator (parameter rig) with perfect corrections.
+// --published-rig puts another rig file's world -> <cam>_link into /tf_static (a calibration's
+// result: the cameras render from their true poses and the estimator fuses with the calibrated).
 // Exit status 0; 1 on bad input files or an unwritable bag; 2 on a bad command line.
 #include <drill_pipe_pose/SensorFrame.h>
 #include <ros/package.h>
@@ -31,7 +34,9 @@
 #include <cstdio>
 #include <fstream>
 #include <iostream>
+#include <optional>
 
+#include "drill_pipe_pose/core/conventions.hpp"
 #include "drill_pipe_pose/core/depth_crop.hpp"
 #include "drill_pipe_pose/core/errors.hpp"
 #include "drill_pipe_pose/core/rig_calibration.hpp"
@@ -53,10 +58,21 @@ void progress(double done, double total, double rate, bool quiet) {
 }
 
 /// The rig's static TF at scenario time `start` [s], latched like
-/// tf2_ros::StaticTransformBroadcaster's.
-void writeStaticTf(const sim::RigSimulator& sim, double start, rosbag::Bag* bag) {
+/// tf2_ros::StaticTransformBroadcaster's; world -> <cam>_link from `published` when given (a
+/// calibrated rig file: what rig_tf_publisher would send), else the simulator's published poses.
+void writeStaticTf(const sim::RigSimulator& sim, double start, const RigCalibration* published,
+                   rosbag::Bag* bag) {
   tf2_msgs::TFMessage tf_static;
   tf_static.transforms = simStaticTransforms(sim);
+  for (size_t i = 0; published && i < sim.numCameras(); ++i) {
+    const int c = published->find(sim.cameraName(i));
+    if (c < 0) fail("--published-rig: camera ", sim.cameraName(i), " is not in the rig file");
+    for (auto& t : tf_static.transforms)
+      if (t.child_frame_id == conventions::linkFrame(sim.cameraName(i)))
+        t.transform = toTransformMsg(published->cameras[c].T_world_link, t.header.frame_id,
+                                     t.child_frame_id, t.header.stamp)
+                          .transform;
+  }
   auto latched = boost::make_shared<std::map<std::string, std::string>>();
   (*latched)["type"] = ros::message_traits::datatype<tf2_msgs::TFMessage>();
   (*latched)["md5sum"] = ros::message_traits::md5sum<tf2_msgs::TFMessage>();
@@ -113,7 +129,7 @@ void writeTrueRig(const sim::RigSimulator& sim, const std::string& path) {
 
 int main(int argc, char** argv) {
   const std::string pkg = ros::package::getPath("drill_pipe_pose");
-  std::string scene, out, rig = pkg + "/config/rigs/thesis_lab.yaml", true_rig;
+  std::string scene, out, rig = pkg + "/config/rigs/thesis_lab.yaml", true_rig, published_rig;
   double duration = 10.0, start = 0.0;
   bool quiet = false, crop = false;
   std::vector<std::string> effects_off;
@@ -131,6 +147,10 @@ int main(int argc, char** argv) {
   app.add_option("--out", out, "bag to write")->required();
   app.add_option("--rig", rig, "rig calibration file (YAML)")
       ->capture_default_str()
+      ->check(CLI::ExistingFile);
+  app.add_option("--published-rig", published_rig,
+                 "publish world -> <cam>_link from this rig file instead of the simulated one (a "
+                 "calibrated rig: render with the true poses, fuse with the calibrated ones)")
       ->check(CLI::ExistingFile);
   app.add_option("--true-rig", true_rig,
                  "also write the rig file of the truth: the true world -> <cam>_link and each "
@@ -206,7 +226,9 @@ int main(int argc, char** argv) {
               << opt.profile << ", seed " << opt.seed << ", " << duration << " s -> " << out
               << "\n";
 
-    writeStaticTf(sim, start, &bag);
+    std::optional<RigCalibration> published;
+    if (!published_rig.empty()) published = loadRigCalibration(published_rig);
+    writeStaticTf(sim, start, published ? &*published : nullptr, &bag);
     if (!true_rig.empty()) writeTrueRig(sim, true_rig);
 
     const auto wall0 = std::chrono::steady_clock::now();
