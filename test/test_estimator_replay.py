@@ -9,6 +9,9 @@
 5. The node and bench_estimator publish the same poses: the bag at quarter speed through the
    node, and bench_estimator on the same bag with the node's configuration; every cycle with the
    same stamp and the same cameras has the same valid ends and poses (1e-6 m, 1e-6 rad).
+6. A bag (seed 62) in which cam2 is moved 2 cm along its view at t = 2 s while its TF stays
+   (simulate_bag --bump): /diagnostics names cam2 (WARN, drift watch) within 3 s of bag time,
+   and no other camera.
 """
 import csv
 import math
@@ -23,7 +26,7 @@ import unittest
 import rosbag
 import rospy
 import rostest
-from diagnostic_msgs.msg import DiagnosticArray
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from drill_pipe_pose.msg import EstimatorStatus, PipeEnds, SensorFrame
 
 PKG = "drill_pipe_pose"
@@ -201,6 +204,31 @@ class EstimatorReplay(unittest.TestCase):
         self.assertGreater(compared, 60, f"too few cycles to compare (seed {SEED}); node's first "
                            f"cycles {sample_node}, bench's {sample_bench}")
         self.assertEqual(differ, [], f"node and bench differ (seed {SEED}): {differ[:10]}")
+
+    def test_6_bumped_camera_in_diagnostics(self):
+        seed, bump_t = 62, 2.0
+        bag = os.path.join(self.tmp, "cam2_bumped.bag")
+        share = subprocess.run(["rospack", "find", PKG], capture_output=True, text=True).stdout.strip()
+        subprocess.run([tool("simulate_bag"), "--scene", f"{share}/config/scenes/thesis_vertical.yaml",
+                        "--duration", "6", "--seed", str(seed), "--crop", "--quiet",
+                        "--bump", f"cam2:{bump_t}:0,0,0.02", "--out", bag], check=True)
+        warned = []
+
+        def on_diag(msg):
+            for st in msg.status:
+                if st.level == DiagnosticStatus.WARN and "disagrees with the fused fit" in st.message:
+                    warned.append((rospy.get_rostime().to_sec() - 1.0, st.hardware_id, st.message))
+
+        sub = rospy.Subscriber("/diagnostics", DiagnosticArray, on_diag)
+        self.play(bag, extra=("-r", "0.5"))  # half speed: /diagnostics comes once per wall second
+        sub.unregister()
+        cams = sorted({c for _, c, _ in warned})
+        self.assertEqual(cams, ["cam2"], f"cameras named by the drift watch (seed {seed}): {warned[:5]}")
+        first = min(t for t, _, _ in warned)
+        print(f"drift watch: cam2 bumped at {bump_t} s named in /diagnostics at {first:.2f} s "
+              f"(seed {seed}): {warned[0][2]}")
+        self.assertGreaterEqual(first, bump_t, f"named before the bump (seed {seed})")
+        self.assertLessEqual(first, bump_t + 3.0, f"named too late (seed {seed})")
 
 
 if __name__ == "__main__":

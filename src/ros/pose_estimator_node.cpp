@@ -150,6 +150,18 @@ class PoseEstimatorNode {
     status.cameras_configured = cfg_.cameras;
     status.cameras_live = runner_.sync().liveCameras();
     status.cameras_used = r.cameras_used;
+    for (const CameraDriftStatus& d : r.drift) {
+      if (d.flagged) status.cameras_drifted.push_back(d.camera);
+      if (d.flagged && !drift_[d.camera].flagged)
+        ROS_WARN("pose_estimator: camera %s disagrees with the fused fit (%s): moved since its "
+                 "calibration? %s", d.camera.c_str(), describeDrift(d).c_str(),
+                 cfg_.estimator.drift.leave_out ? "left out of the fit until it agrees"
+                                                : "still in the fit");
+      if (!d.flagged && drift_[d.camera].flagged)
+        ROS_INFO("pose_estimator: camera %s agrees with the fused fit again (%s)",
+                 d.camera.c_str(), describeDrift(d).c_str());
+      drift_[d.camera] = d;
+    }
     std::string message;
     for (int e = 0; e < kNumEnds; ++e) {
       const EndEstimate& est = r.ends[e];
@@ -353,6 +365,11 @@ class PoseEstimatorNode {
       } else if (!st.live) {
         s.level = diagnostic_msgs::DiagnosticStatus::ERROR;
         s.message = "silent for " + std::to_string(now - st.last_arrival) + " s: left the fusion";
+      } else if (drift_.count(cam) && drift_.at(cam).flagged) {
+        const CameraDriftStatus& d = drift_.at(cam);
+        s.level = diagnostic_msgs::DiagnosticStatus::WARN;
+        s.message = "disagrees with the fused fit (" + describeDrift(d) + "): moved since its " +
+                    "calibration? " + (d.left_out ? "left out of the fit" : "still in the fit");
       } else if (cnt.bad_input || cnt.tf_failures) {
         s.level = diagnostic_msgs::DiagnosticStatus::WARN;
         s.message = "frames dropped (bad input or TF)";
@@ -374,6 +391,13 @@ class PoseEstimatorNode {
       kv("dropped: buffer overflow", std::to_string(st.dropped_overflow));
       kv("dropped: bad input", std::to_string(cnt.bad_input));
       kv("dropped: TF lookup failed", std::to_string(cnt.tf_failures));
+      if (drift_.count(cam)) {
+        const CameraDriftStatus& d = drift_.at(cam);
+        kv("drift: shift along the view ray [mm]", std::to_string(d.ray_shift * 1e3));
+        kv("drift: rotation [deg]", std::to_string(d.rotation));
+        kv("drift: flagged", d.flagged ? "true" : "false");
+        kv("drift: left out of the fit", d.left_out ? "true" : "false");
+      }
       arr.status.push_back(s);
     }
     last_diag_wall_ = now;
@@ -414,6 +438,7 @@ class PoseEstimatorNode {
   ros::Publisher ends_pub_, status_pub_, diag_pub_, fused_pub_, segmented_pub_, marker_pub_;
   ros::WallTimer poll_timer_, diag_timer_;
   std::map<std::string, Counters> counters_;
+  std::map<std::string, CameraDriftStatus> drift_;  ///< the drift watch's last status per camera
   double last_diag_wall_ = wallNow();
 };
 

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstring>
 #include <map>
+#include <stdexcept>
+#include <string>
 
 #include "drill_pipe_pose/core/conventions.hpp"
 #include "drill_pipe_pose/core/errors.hpp"
@@ -185,9 +187,75 @@ RigSimulator::RigSimulator(const RigCalibration& rig, const SceneConfig& scene,
     for (size_t k = 0; k < cam->rays.size(); ++k) cam->ray_z[k] = cam->rays[k].z();
     cams_.push_back(std::move(cam));
   }
+  for (const CameraBump& b : opt.bumps) {
+    bool known = false;
+    for (const auto& c : cams_) known = known || c->name == b.camera;
+    if (!known) fail("RigSimulator: camera bump of \"", b.camera, "\": no such camera in the rig");
+  }
 }
 
 RigSimulator::~RigSimulator() = default;
+
+Eigen::Isometry3d CameraBump::delta() const {
+  const double k = M_PI / 180.0;
+  Eigen::Isometry3d d = Eigen::Isometry3d::Identity();
+  d.translation() = translation;
+  d.linear() = (Eigen::AngleAxisd(rpy_deg.z() * k, Eigen::Vector3d::UnitZ()) *
+                Eigen::AngleAxisd(rpy_deg.y() * k, Eigen::Vector3d::UnitY()) *
+                Eigen::AngleAxisd(rpy_deg.x() * k, Eigen::Vector3d::UnitX()))
+                   .toRotationMatrix();
+  return d;
+}
+
+CameraBump parseCameraBump(const std::string& text) {
+  std::vector<std::string> parts;
+  size_t start = 0;
+  for (size_t colon; (colon = text.find(':', start)) != std::string::npos; start = colon + 1)
+    parts.push_back(text.substr(start, colon - start));
+  parts.push_back(text.substr(start));
+  auto bad = [&](const std::string& why) {
+    fail("camera bump \"", text, "\": ", why,
+         " (expected CAM:T:DX,DY,DZ[:ROLL,PITCH,YAW] in s, m, deg)");
+  };
+  if (parts.size() < 3 || parts.size() > 4 || parts[0].empty()) bad("wrong number of fields");
+  auto number = [&](const std::string& f) {
+    size_t used = 0;
+    double v = 0;
+    try {
+      v = std::stod(f, &used);
+    } catch (const std::exception&) {
+      bad("\"" + f + "\" is not a number");
+    }
+    if (used != f.size() || !std::isfinite(v)) bad("\"" + f + "\" is not a number");
+    return v;
+  };
+  auto triple = [&](const std::string& f) {
+    const size_t a = f.find(','), b = a == std::string::npos ? a : f.find(',', a + 1);
+    if (b == std::string::npos || f.find(',', b + 1) != std::string::npos)
+      bad("\"" + f + "\" is not three comma-separated numbers");
+    return Eigen::Vector3d(number(f.substr(0, a)), number(f.substr(a + 1, b - a - 1)),
+                           number(f.substr(b + 1)));
+  };
+  CameraBump bump;
+  bump.camera = parts[0];
+  bump.t = number(parts[1]);
+  bump.translation = triple(parts[2]);
+  if (parts.size() == 4) bump.rpy_deg = triple(parts[3]);
+  return bump;
+}
+
+void RigSimulator::applyBumps(Camera& cam, double t) {
+  const CameraBump* due = nullptr;
+  for (const CameraBump& b : opt_.bumps)
+    if (b.camera == cam.name && b.t <= t && (!due || b.t >= due->t)) due = &b;
+  const Eigen::Isometry3d T_world_link =
+      due ? Eigen::Isometry3d(cam.T_world_link_true * due->delta()) : cam.T_world_link_true;
+  if (T_world_link.matrix() == cam.T_world_color.matrix()) return;
+  cam.T_world_color = T_world_link;
+  cam.T_world_depth = T_world_link * cam.sensor.T_color_depth;
+  cam.depth_ready = false;
+  cam.color_ready = false;
+}
 
 const std::string& RigSimulator::cameraName(size_t i) const {
   return cams_.at(i)->name;
@@ -468,6 +536,7 @@ void RigSimulator::renderColor(Camera& cam, size_t index, const SceneSnapshot& s
 
 RigSimulator::Frame RigSimulator::render(size_t camera, double t, uint64_t frame_index) {
   Camera& cam = *cams_.at(camera);
+  if (!opt_.bumps.empty()) applyBumps(cam, t);
   const SceneSnapshot snap = scene_.snapshot(t);
   Frame f;
   SensorFrameData& sf = f.sensor_frame;

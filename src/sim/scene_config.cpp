@@ -283,6 +283,39 @@ CalibrationTargetConfig parseCalibrationTarget(const YAML::Node& n, const std::s
   return c;
 }
 
+/// The scene's static and moving objects (not pipes), into cfg->objects.
+void parseObjects(const YAML::Node& objs, SceneConfig* cfgp, const std::string& src) {
+  SceneConfig& cfg = *cfgp;
+  if (!objs.IsSequence()) fail(src, ": objects: expected a sequence");
+  for (size_t i = 0; i < objs.size(); ++i) {
+    const YAML::Node n = objs[i];
+    const std::string w = src + ": objects[" + std::to_string(i) + "]";
+    ObjectConfig o;
+    o.name = yamlGetOr<std::string>(n, "name", "object" + std::to_string(i), w);
+    const std::string type = yamlGet<std::string>(n, "type", w);
+    if (type == "box") {
+      o.shape = Shape::box(yamlVec3(n, "size", w));
+    } else if (type == "cylinder") {
+      const double r = yamlGet<double>(n, "radius", w), h = yamlGet<double>(n, "height", w);
+      if (!(r > 0) || !(h > 0)) fail(w, ": radius and height: expected > 0");
+      o.shape = Shape::cylinder(r, 0.0, h);
+    } else if (type == "plane") {
+      const Eigen::Vector2d s = yamlVector<2>(yamlChild(n, "size", w), "size", w);
+      if (s.minCoeff() < 0) fail(w, ": size: expected >= 0 (0 = unbounded)");
+      o.shape = Shape::plane(s.x(), s.y());
+    } else {
+      fail(w, ": type: unknown object type \"", type, "\" (expected box, cylinder, plane)");
+    }
+    o.material = checkMaterial(cfg.materials, yamlGet<std::string>(n, "material", w), w);
+    const Eigen::Isometry3d pose = parsePose(yamlChild(n, "pose", w), w + ".pose");
+    RandomPoseSpec rs;
+    bool random = false;
+    o.motion = parseMotion(n, pose, w, &rs, &random);
+    if (random) fail(w, ".motion: random_poses is only supported for tool_joint pipes");
+    cfg.objects.push_back(o);
+  }
+}
+
 SceneConfig parseRoot(const YAML::Node& root, const std::string& src) {
   if (!root.IsMap()) fail(src, ": expected a map at the top level");
   static const std::set<std::string> top = {"name",      "description", "work_zone",
@@ -319,37 +352,7 @@ SceneConfig parseRoot(const YAML::Node& root, const std::string& src) {
     cfg.calibration_target =
         parseCalibrationTarget(root["calibration_target"], src + ": calibration_target");
 
-  if (root["objects"]) {
-    const YAML::Node objs = root["objects"];
-    if (!objs.IsSequence()) fail(src, ": objects: expected a sequence");
-    for (size_t i = 0; i < objs.size(); ++i) {
-      const YAML::Node n = objs[i];
-      const std::string w = src + ": objects[" + std::to_string(i) + "]";
-      ObjectConfig o;
-      o.name = yamlGetOr<std::string>(n, "name", "object" + std::to_string(i), w);
-      const std::string type = yamlGet<std::string>(n, "type", w);
-      if (type == "box") {
-        o.shape = Shape::box(yamlVec3(n, "size", w));
-      } else if (type == "cylinder") {
-        const double r = yamlGet<double>(n, "radius", w), h = yamlGet<double>(n, "height", w);
-        if (!(r > 0) || !(h > 0)) fail(w, ": radius and height: expected > 0");
-        o.shape = Shape::cylinder(r, 0.0, h);
-      } else if (type == "plane") {
-        const Eigen::Vector2d s = yamlVector<2>(yamlChild(n, "size", w), "size", w);
-        if (s.minCoeff() < 0) fail(w, ": size: expected >= 0 (0 = unbounded)");
-        o.shape = Shape::plane(s.x(), s.y());
-      } else {
-        fail(w, ": type: unknown object type \"", type, "\" (expected box, cylinder, plane)");
-      }
-      o.material = checkMaterial(cfg.materials, yamlGet<std::string>(n, "material", w), w);
-      const Eigen::Isometry3d pose = parsePose(yamlChild(n, "pose", w), w + ".pose");
-      RandomPoseSpec rs;
-      bool random = false;
-      o.motion = parseMotion(n, pose, w, &rs, &random);
-      if (random) fail(w, ".motion: random_poses is only supported for tool_joint pipes");
-      cfg.objects.push_back(o);
-    }
-  }
+  if (root["objects"]) parseObjects(root["objects"], &cfg, src);
 
   // A calibration scene may have no pipes; every other scene needs at least one.
   if (cfg.calibration_target && !root["pipes"]) return cfg;

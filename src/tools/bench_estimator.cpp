@@ -226,6 +226,10 @@ struct Tally {
   std::vector<EstimateSample> estimates;
   std::map<std::string, size_t> reasons;
   std::ofstream cycles_csv;
+  /// Drift watch: per camera, times it was flagged (a clear one turning flagged) and cycles it
+  /// spent flagged; its last flag state.
+  std::map<std::string, size_t> drift_flags, drift_cycles;
+  std::map<std::string, bool> drift_state;
 };
 
 void tally(const CycleOutput& out, double ms, Tally* t) {
@@ -238,6 +242,15 @@ void tally(const CycleOutput& out, double ms, Tally* t) {
   for (const InputProblem& p : out.problems)
     if (t->problems++ < 5)
       std::cerr << "bench_estimator: a frame of " << p.camera << " left out: " << p.message << "\n";
+  for (const CameraDriftStatus& d : out.result.drift) {
+    if (d.flagged && !t->drift_state[d.camera]) {
+      ++t->drift_flags[d.camera];
+      std::cerr << "bench_estimator: drift watch flags " << d.camera << " at stamp "
+                << out.cycle.stamp_ns * 1e-9 << " s: " << describeDrift(d) << "\n";
+    }
+    if (d.flagged) ++t->drift_cycles[d.camera];
+    t->drift_state[d.camera] = d.flagged;
+  }
   std::string cams;
   for (const auto& c : out.result.cameras_used) cams += (cams.empty() ? "" : "+") + c;
   for (int e = 0; e < kNumEnds; ++e) {
@@ -281,6 +294,17 @@ void report(const BenchOptions& o, const std::string& method, size_t n_cameras, 
             << percentile(t.stage_ms[3], 0.5) << "\n";
   printEvaluation(evals, std::cout);
   for (const auto& [why, n] : t.reasons) std::cout << "invalid " << n << "x: " << why << "\n";
+  size_t flags = 0, flagged_cycles = 0;
+  std::string flagged_cams;
+  for (const auto& [cam, n] : t.drift_flags) {
+    flags += n;
+    flagged_cams += " " + cam + " " + std::to_string(n) + "x (" +
+                    std::to_string(t.drift_cycles.at(cam)) + " cycles)";
+  }
+  for (const auto& [cam, n] : t.drift_cycles) flagged_cycles += n;
+  std::cout << "drift flags: " << flags << (flags ? ":" + flagged_cams : "") << "\n";
+  std::cout << "DRIFT label=" << label << " method=" << method << " flags=" << flags
+            << " flagged_cycles=" << flagged_cycles << "\n";
   // One machine-readable line per end for scripts/bench.
   for (const auto& ev : evals) {
     if (!ev.present) continue;

@@ -5,6 +5,7 @@
 //       [--seed 1] [--no-detection] [--color] [--crop] [--sensors config/sensors] [--quiet]
 //       [--effect-off EFFECT]... [--model fitted|before-fit|additive] [--true-rig FILE]
 //       [--hd-mono] [--fps N]
+//       [--published-rig FILE]
 //
 // --crop sends each SensorFrame's depth cropped to its boxes' frustum (roi), as a bandwidth-saving
 // sensor node does: bags are ~100x smaller and the estimator's poses are the same.
@@ -29,6 +30,8 @@
 // of each camera, k = round(frame rate / N) (N frames per second per camera), as a recorder that
 // throttles does; the other captures are not rendered. Without these two flags the bag is the same
 // as before they existed.
+// --published-rig puts another rig file's world -> <cam>_link into /tf_static (a calibration's
+// result: the cameras render from their true poses and the estimator fuses with the calibrated).
 // Exit status 0; 1 on bad input files or an unwritable bag; 2 on a bad command line.
 #include <drill_pipe_pose/SensorFrame.h>
 #include <ros/package.h>
@@ -40,7 +43,9 @@
 #include <cstdio>
 #include <fstream>
 #include <iostream>
+#include <optional>
 
+#include "drill_pipe_pose/core/conventions.hpp"
 #include "drill_pipe_pose/core/depth_crop.hpp"
 #include "drill_pipe_pose/core/errors.hpp"
 #include "drill_pipe_pose/core/rig_calibration.hpp"
@@ -62,10 +67,21 @@ void progress(double done, double total, double rate, bool quiet) {
 }
 
 /// The rig's static TF at scenario time `start` [s], latched like
-/// tf2_ros::StaticTransformBroadcaster's.
-void writeStaticTf(const sim::RigSimulator& sim, double start, rosbag::Bag* bag) {
+/// tf2_ros::StaticTransformBroadcaster's; world -> <cam>_link from `published` when given (a
+/// calibrated rig file: what rig_tf_publisher would send), else the simulator's published poses.
+void writeStaticTf(const sim::RigSimulator& sim, double start, const RigCalibration* published,
+                   rosbag::Bag* bag) {
   tf2_msgs::TFMessage tf_static;
   tf_static.transforms = simStaticTransforms(sim);
+  for (size_t i = 0; published && i < sim.numCameras(); ++i) {
+    const int c = published->find(sim.cameraName(i));
+    if (c < 0) fail("--published-rig: camera ", sim.cameraName(i), " is not in the rig file");
+    for (auto& t : tf_static.transforms)
+      if (t.child_frame_id == conventions::linkFrame(sim.cameraName(i)))
+        t.transform = toTransformMsg(published->cameras[c].T_world_link, t.header.frame_id,
+                                     t.child_frame_id, t.header.stamp)
+                          .transform;
+  }
   auto latched = boost::make_shared<std::map<std::string, std::string>>();
   (*latched)["type"] = ros::message_traits::datatype<tf2_msgs::TFMessage>();
   (*latched)["md5sum"] = ros::message_traits::md5sum<tf2_msgs::TFMessage>();
@@ -158,16 +174,67 @@ void writeTrueRig(const sim::RigSimulator& sim, const std::string& path) {
   if (!f) fail("cannot write the true rig file '", path, "'");
 }
 
+/// The sensor model's options (profile, seed, sensor files, bumps, effects off, model).
+struct ModelArgs {
+  std::vector<std::string> effects_off, bumps;
+  std::string model = "fitted";
+};
+
+void addModelOptions(CLI::App& app, sim::SimulatorOptions* opt, ModelArgs* m) {
+  app.add_option("--profile", opt->profile,
+                 "sensor profile: ideal|kinect_v2_calibrated|kinect_v2_field|"
+                 "kinect_v2_uncalibrated")
+      ->capture_default_str()
+      ->check(tools::throwingCheck("PROFILE", [](const std::string& v) { sim::sensorProfile(v); }));
+  app.add_option("--seed", opt->seed, "random seed of the simulation")->capture_default_str();
+  app.add_option("--sensors", opt->sensor_config_dir, "folder of the sensor intrinsics files")
+      ->capture_default_str()
+      ->check(CLI::ExistingDirectory);
+  app.add_option("--bump", m->bumps,
+                 "move camera CAM's true pose at time T [s] by DX,DY,DZ [m] (and ROLL,PITCH,YAW "
+                 "[deg]) in its <cam>_link (x right, y down, z along the view) while the "
+                 "published TF stays (a bumped camera; repeatable)")
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
+      ->expected(1)
+      ->option_text("CAM:T:DX,DY,DZ[:ROLL,PITCH,YAW] ...")
+      ->check(tools::throwingCheck("BUMP", [](const std::string& v) { sim::parseCameraBump(v); }));
+  app.add_option("--effect-off", m->effects_off,
+                 "switch one of the profile's sensor effects off by name (repeatable)")
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
+      ->expected(1)
+      ->option_text("EFFECT ...")
+      ->check(tools::throwingCheck("EFFECT", [](const std::string& v) {
+        sim::SensorEffects fx;
+        sim::switchOffEffect(&fx, v);
+      }));
+  app.add_option("--model", m->model,
+                 "sensor model: fitted, before-fit (as before the fit to real frames) or additive "
+                 "(the weak-return noise added to the range law)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"fitted", "before-fit", "additive"}));
+}
+
+/// Applies the parsed ModelArgs to the simulator's options.
+void applyModelArgs(const ModelArgs& m, sim::SimulatorOptions* opt) {
+  if (!m.effects_off.empty() || m.model != "fitted") {
+    sim::SensorEffects fx = sim::sensorProfile(opt->profile);
+    if (m.model == "before-fit") sim::useModelBeforeFit(&fx);
+    fx.amplitude_noise_additive = m.model == "additive";
+    for (const std::string& e : m.effects_off) sim::switchOffEffect(&fx, e);
+    opt->effects = fx;
+  }
+  for (const std::string& b : m.bumps) opt->bumps.push_back(sim::parseCameraBump(b));
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   const std::string pkg = ros::package::getPath("drill_pipe_pose");
-  std::string scene, out, rig = pkg + "/config/rigs/thesis_lab.yaml", true_rig;
+  std::string scene, out, rig = pkg + "/config/rigs/thesis_lab.yaml", true_rig, published_rig;
   double duration = 10.0, start = 0.0;
   FrameOptions fo;
   double fps = 0.0;
-  std::vector<std::string> effects_off;
-  std::string model = "fitted";
+  ModelArgs model_args;
   sim::SimulatorOptions opt;
   opt.sensor_config_dir = pkg + "/config/sensors";
   opt.stamp_origin_ns = 1000000000;  // t = 0 at ROS time 1 s (0 means "latest" to tf2)
@@ -182,6 +249,10 @@ int main(int argc, char** argv) {
   app.add_option("--rig", rig, "rig calibration file (YAML)")
       ->capture_default_str()
       ->check(CLI::ExistingFile);
+  app.add_option("--published-rig", published_rig,
+                 "publish world -> <cam>_link from this rig file instead of the simulated one (a "
+                 "calibrated rig: render with the true poses, fuse with the calibrated ones)")
+      ->check(CLI::ExistingFile);
   app.add_option("--true-rig", true_rig,
                  "also write the rig file of the truth: the true world -> <cam>_link and each "
                  "camera's true depth_scale and depth_offset, the offset including the weak-return "
@@ -194,12 +265,6 @@ int main(int argc, char** argv) {
   app.add_option("--start", start, "[s] scenario time of the first frame")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 86400.0));
-  app.add_option("--profile", opt.profile,
-                 "sensor profile: ideal|kinect_v2_calibrated|kinect_v2_field|"
-                 "kinect_v2_uncalibrated")
-      ->capture_default_str()
-      ->check(tools::throwingCheck("PROFILE", [](const std::string& v) { sim::sensorProfile(v); }));
-  app.add_option("--seed", opt.seed, "random seed of the simulation")->capture_default_str();
   app.add_flag_function("--no-detection", [&](int64_t) { opt.simulated_detection = false; },
                "send no simulated detections (boxes) in the SensorFrames");
   auto* color = app.add_flag(
@@ -216,33 +281,11 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber);
   app.add_flag("--crop", fo.crop,
                "crop each SensorFrame's depth to its boxes' frustum (~100x smaller)");
-  app.add_option("--sensors", opt.sensor_config_dir, "folder of the sensor intrinsics files")
-      ->capture_default_str()
-      ->check(CLI::ExistingDirectory);
   app.add_flag("--quiet", fo.quiet, "no progress bar");
-  app.add_option("--effect-off", effects_off,
-                 "switch one of the profile's sensor effects off by name (repeatable)")
-      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
-      ->expected(1)
-      ->option_text("EFFECT ...")
-      ->check(tools::throwingCheck("EFFECT", [](const std::string& v) {
-        sim::SensorEffects fx;
-        sim::switchOffEffect(&fx, v);
-      }));
-  app.add_option("--model", model,
-                 "sensor model: fitted, before-fit (as before the fit to real frames) or additive "
-                 "(the weak-return noise added to the range law)")
-      ->capture_default_str()
-      ->check(CLI::IsMember({"fitted", "before-fit", "additive"}));
+  addModelOptions(app, &opt, &model_args);
   tools::parseOrExit(app, argc, argv);
   try {
-    if (!effects_off.empty() || model != "fitted") {
-      sim::SensorEffects fx = sim::sensorProfile(opt.profile);
-      if (model == "before-fit") sim::useModelBeforeFit(&fx);
-      fx.amplitude_noise_additive = model == "additive";
-      for (const std::string& e : effects_off) sim::switchOffEffect(&fx, e);
-      opt.effects = fx;
-    }
+    applyModelArgs(model_args, &opt);
     if (fo.hd_mono) renderForCalibration(&opt);
     auto simulator = sim::loadScenario(rig, scene, opt);
     sim::RigSimulator& sim = *simulator;
@@ -255,7 +298,9 @@ int main(int argc, char** argv) {
               << opt.profile << ", seed " << opt.seed << ", " << duration << " s -> " << out
               << "\n";
 
-    writeStaticTf(sim, start, &bag);
+    std::optional<RigCalibration> published;
+    if (!published_rig.empty()) published = loadRigCalibration(published_rig);
+    writeStaticTf(sim, start, published ? &*published : nullptr, &bag);
     if (!true_rig.empty()) writeTrueRig(sim, true_rig);
 
     const auto wall0 = std::chrono::steady_clock::now();

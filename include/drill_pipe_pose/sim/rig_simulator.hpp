@@ -31,6 +31,21 @@
 
 namespace drill_pipe_pose::sim {
 
+/// A camera moved at a capture time while its published calibration (TF) stays as it was (a
+/// bumped camera). From simulation time t on, the camera renders depth, colour and detections
+/// from T_world_link_true * delta, delta = translation * Rz(yaw) Ry(pitch) Rx(roll), in the
+/// camera's <cam>_link (the colour optical frame: x right, y down, z along the view).
+struct CameraBump {
+  std::string camera;
+  double t = 0.0;                                         ///< [s] simulation time
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();  ///< [m] in <cam>_link
+  Eigen::Vector3d rpy_deg = Eigen::Vector3d::Zero();      ///< [deg] roll, pitch, yaw
+  Eigen::Isometry3d delta() const;
+};
+
+/// "CAM:T:DX,DY,DZ[:ROLL,PITCH,YAW]" (s, m, deg) -> a bump; throws InputError naming the text.
+CameraBump parseCameraBump(const std::string& text);
+
 struct SimulatorOptions {
   /// ideal | kinect_v2_calibrated | kinect_v2_field | kinect_v2_uncalibrated
   std::string profile = "kinect_v2_calibrated";
@@ -49,6 +64,9 @@ struct SimulatorOptions {
   /// Overrides the profile's effects entirely when set (start from sensorProfile(profile)).
   std::optional<SensorEffects> effects;
   DetectorErrorModel detector;  ///< the simulated detector defaults of docs/conventions.md
+  /// Cameras moved during the run (CameraBump); a camera with several takes the latest due.
+  /// Empty: every frame as without the option.
+  std::vector<CameraBump> bumps;
 };
 
 /// One capture of the schedule.
@@ -71,7 +89,7 @@ class RigSimulator {
   /// world -> <cam>_link as TF should publish it (the true one plus the injected calibration
   /// error in the field profile).
   Eigen::Isometry3d publishedT_world_link(size_t i) const;
-  /// world -> <cam>_link used for rendering.
+  /// world -> <cam>_link used for rendering (before any SimulatorOptions::bumps).
   Eigen::Isometry3d trueT_world_link(size_t i) const;
   /// T_link_depth: <cam>_rgb_optical_frame -> <cam>_ir_optical_frame as a TF (parent -> child):
   /// p_link = T_link_depth * p_depth. Translation ~ (-0.0515, 0, -0.001) m for a Kinect v2.
@@ -129,6 +147,9 @@ class RigSimulator {
 
  private:
   struct Camera;
+  /// Moves the camera to its pose at time t (SimulatorOptions::bumps): its cached
+  /// backgrounds are dropped when the pose changes.
+  void applyBumps(Camera& cam, double t);
   void ensureBackground(Camera& cam);
   void renderDepth(Camera& cam, size_t index, const SceneSnapshot& snap, uint64_t frame_index,
                    DepthImage* out);

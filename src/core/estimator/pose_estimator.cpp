@@ -1,6 +1,8 @@
 // The estimator's cycle as a sequence of named stages: input assembly, cut-out, carving,
 // instances (per label: axis fit, hypotheses and decision, refinement), label corrections,
-// tracking, assignment of candidates to ends, temporal filter, covariance, output.
+// tracking, assignment of candidates to ends, temporal filter, covariance, output; around them
+// the drift watch (drift_watch.hpp): flagged cameras left out before the cut-out, every camera
+// measured against the fitted ends after the output.
 
 #include "drill_pipe_pose/core/estimator/pose_estimator.hpp"
 
@@ -8,6 +10,7 @@
 #include <cmath>
 #include <future>
 #include <limits>
+#include <map>
 #include <set>
 #include <sstream>
 
@@ -28,6 +31,7 @@ struct EstimatorState {
   std::array<LabelState, kNumEnds> labels;  ///< per detected label
   std::array<EndPoseFilter, kNumEnds> filters;  ///< per published end
   std::unique_ptr<ThesisBaseline> baseline;     ///< with method thesis_baseline
+  DriftWatch drift;                             ///< per camera (EstimatorConfig::Drift)
 };
 
 struct PoseEstimator::Impl {
@@ -55,6 +59,72 @@ std::vector<CycleCamera> assembleCameras(const std::vector<CameraInput>& inputs,
     }
   }
   return cams;
+}
+
+/// Stage "drift watch" before the fit: the flagged cameras whose points leave this cycle's fit
+/// (drift.leave_out), the most disagreeing first, while drift.min_cameras others remain; moved
+/// from `cams` into the returned list.
+std::vector<CycleCamera> takeLeftOut(std::vector<CycleCamera>* cams, const DriftWatch& watch,
+                                     const EstimatorConfig::Drift& dc) {
+  std::vector<CycleCamera> out;
+  if (!dc.enabled || !dc.leave_out) return out;
+  std::vector<std::pair<double, size_t>> flagged;  // (-excess, index): most disagreeing first
+  for (size_t c = 0; c < cams->size(); ++c)
+    if (watch.flagged((*cams)[c].name)) flagged.emplace_back(-watch.excess((*cams)[c].name), c);
+  if (flagged.empty()) return out;
+  std::sort(flagged.begin(), flagged.end());
+  std::vector<bool> leave(cams->size(), false);
+  int remaining = static_cast<int>(cams->size());
+  for (const auto& f : flagged) {
+    if (remaining - 1 < dc.min_cameras) break;
+    leave[f.second] = true;
+    --remaining;
+  }
+  std::vector<CycleCamera> kept;
+  for (size_t c = 0; c < cams->size(); ++c)
+    (leave[c] ? out : kept).push_back(std::move((*cams)[c]));
+  *cams = std::move(kept);
+  return out;
+}
+
+/// Stage "drift watch" after the output: each camera's cut-out points of a valid end's label
+/// (the fit's cameras' from `raw`; the left-out cameras' cut out here, indexed after them)
+/// against that end's fitted model; the watch updated, and its status into result->drift.
+void watchDrift(const std::vector<CycleCamera>& cams, const std::vector<CycleCamera>& left_out,
+                const std::array<std::vector<CloudPoint>, kNumEnds>& raw,
+                const std::array<Candidate, kNumEnds>& cand, const std::array<int, kNumEnds>& owner,
+                const EndModels& models, int64_t stamp_ns, const EstimatorConfig& config,
+                DriftWatch* watch, CycleResult* result) {
+  std::array<std::vector<CloudPoint>, kNumEnds> raw_out;
+  for (size_t k = 0; k < left_out.size(); ++k)
+    cutOutCamera(left_out[k], static_cast<uint16_t>(cams.size() + k), config, &raw_out);
+  auto camAt = [&](size_t c) -> const CycleCamera& {
+    return c < cams.size() ? cams[c] : left_out[c - cams.size()];
+  };
+  const size_t n = cams.size() + left_out.size();
+  std::map<std::string, ShiftObservation> obs;
+  for (int slot = 0; slot < kNumEnds; ++slot) {
+    if (!result->ends[slot].valid || owner[slot] < 0) continue;
+    const Candidate& cd = cand[owner[slot]];
+    FittedSurface s;
+    s.model = &models.models[slot];
+    s.origin = cd.fit.origin;
+    s.z = cd.fit.z;
+    s.min_z = s.model->trustedMinZ(config.profile_fit.wear_margin);
+    if (cd.has_support) s.min_world_z = cd.support_z + config.profile_fit.support_clearance;
+    std::vector<std::vector<Eigen::Vector3f>> per(n);
+    const std::array<const std::vector<CloudPoint>*, 2> sources{{&raw[owner[slot]],
+                                                                 &raw_out[owner[slot]]}};
+    for (const std::vector<CloudPoint>* pts : sources)
+      for (const CloudPoint& p : *pts) per[p.camera].push_back(p.p_world);
+    for (size_t c = 0; c < n; ++c)
+      obs[camAt(c).name].add(
+          observeShift(per[c], camAt(c).T_world_depth.translation(), s, config.drift.gate));
+  }
+  watch->update(stamp_ns, obs);
+  result->drift = watch->status();
+  for (CameraDriftStatus& d : result->drift)
+    for (const CycleCamera& cam : left_out) d.left_out = d.left_out || cam.name == d.camera;
 }
 
 /// Whether a full decision is planned for the box end's label this cycle: it has a box, and no
@@ -225,6 +295,7 @@ PoseEstimator::PoseEstimator(const EstimatorConfig& config) : config_(config) {
   if (config_.method == EstimatorMethod::kThesisBaseline)
     impl_->state.baseline = std::make_unique<ThesisBaseline>(config_);
   for (auto& f : impl_->state.filters) f = EndPoseFilter(config_.temporal);
+  impl_->state.drift = DriftWatch(config_.drift);
 }
 
 PoseEstimator::~PoseEstimator() = default;
@@ -234,6 +305,7 @@ void PoseEstimator::reset() {
   if (s.baseline) s.baseline->reset();
   for (auto& f : s.filters) f.reset();
   for (auto& l : s.labels) l = LabelState();
+  s.drift.reset();
 }
 
 CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
@@ -244,8 +316,7 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
     result.ends[l].label = static_cast<EndLabel>(l);
     result.ends[l].valid = false;
   }
-  const std::vector<CycleCamera> cams =
-      assembleCameras(inputs, config_.cutout.min_confidence, &result);
+  std::vector<CycleCamera> cams = assembleCameras(inputs, config_.cutout.min_confidence, &result);
   if (cams.empty()) {
     for (auto& e : result.ends)
       e.reason = inputs.empty() ? "no camera input in this cycle" : "no valid camera input";
@@ -259,6 +330,8 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
     result.timing.total_ms = msSince(t_start);
     return result;
   }
+
+  const std::vector<CycleCamera> left_out = takeLeftOut(&cams, state.drift, config_.drift);
 
   // Cut-out.
   auto t0 = Clock::now();
@@ -302,6 +375,9 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
   for (int slot = 0; slot < kNumEnds; ++slot)
     outputEnd(slot, owner[slot] < 0 ? nullptr : &cand[owner[slot]], cand, cams, stamp_ns,
               &state.filters[slot], config_, &result);
+  if (config_.drift.enabled)
+    watchDrift(cams, left_out, raw, cand, owner, impl_->models, stamp_ns, config_, &state.drift,
+               &result);
   result.timing.total_ms = msSince(t_start);
   return result;
 }

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "drill_pipe_pose/core/conventions.hpp"
+#include "drill_pipe_pose/core/estimator/drift_watch.hpp"
 #include "drill_pipe_pose/core/estimator/estimator_config.hpp"
 #include "drill_pipe_pose/core/sensor_frame.hpp"
 
@@ -59,6 +60,10 @@ struct CycleResult {
   CycleTiming timing;
   std::vector<std::string> camera_errors;  ///< bad inputs, one line per skipped camera
   std::vector<std::string> cameras_used;   ///< cameras whose frames entered this cycle
+  /// The drift watch after this cycle (EstimatorConfig::Drift): every camera it has seen, with
+  /// its running disagreement with the fused fit, its flag, and whether this cycle's fit left
+  /// its points out. Empty when drift.enabled is false (or with thesis_baseline).
+  std::vector<CameraDriftStatus> drift;
   /// Per detected label ([0] box_end, [1] pin_end): its candidate ends in the work zone (the
   /// clusters of its carved points; EstimatorConfig::Instances).
   std::array<uint32_t, kNumEnds> instances{{0, 0}};
@@ -70,7 +75,8 @@ struct CycleResult {
 
 /// The pipeline. Not thread-safe (one instance per thread). Keeps state across cycles in one
 /// place (per label: the track, the instance memory, the label-flip count; per end: the temporal
-/// filter; the thesis_baseline's layers and model poses); reset() clears all of it.
+/// filter; the drift watch's per-camera estimates; the thesis_baseline's layers and model poses);
+/// reset() clears all of it.
 class PoseEstimator {
  public:
   /// Validates the configuration (throws InputError naming the key) and builds the models.

@@ -1,0 +1,106 @@
+#pragma once
+// The drift watch: how each camera's points disagree with the fused fit, averaged over capture
+// time, and which cameras disagree enough to be flagged (a bumped camera: its published
+// calibration no longer holds). ROS-free; PoseEstimator runs it after each cycle's fit
+// (EstimatorConfig::Drift) and leaves flagged cameras out of the next cycles' fits.
+//
+// Per cycle and camera: the translation t that best moves the fitted model surfaces of the valid
+// ends it saw onto its points (point to plane, least squares; observeShift), split into the
+// shift along the camera's view ray (t . u, u the unit ray from the camera to the end) and a
+// rotation (the lateral rest of t over the range: a rotated camera moves its points sideways by
+// about range x angle). The shift along the ray that the cycle's cameras share (their median,
+// with 3 or more measured) is taken off: it is no one camera's drift. Per camera, both are
+// averaged with an exponential weight of time
+// constant drift.time_constant [s] of capture time (DriftWatch). Hysteresis: flagged above
+// max_ray_shift or max_rotation, cleared when both fall below release_fraction of them.
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <limits>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "drill_pipe_pose/core/estimator/estimator_config.hpp"
+#include "drill_pipe_pose/core/estimator/profile_model.hpp"
+
+namespace drill_pipe_pose {
+
+/// One camera's points against the fitted models in one cycle: the normal equations of the
+/// translation t (world) that moves the model surfaces onto the points, sum over the points of
+/// n n^T and n d (n the unit surface normal at the closest model point, d the distance along
+/// it), and the view geometry.
+struct ShiftObservation {
+  Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d b = Eigen::Vector3d::Zero();
+  Eigen::Vector3d ray_sum = Eigen::Vector3d::Zero();  ///< sum of unit rays camera -> end, per point
+  double range_sum = 0.0;  ///< [m] sum of ranges camera -> end, per point
+  size_t points = 0;
+  void add(const ShiftObservation& o);
+  /// The translation [m, world] (ridge-regularised: a direction that fewer than 0.5 % of the
+  /// points' normals constrain stays near 0).
+  Eigen::Vector3d solve() const;
+};
+
+/// A fitted end as the drift watch sees it: the model at pose (origin, unit axis z) [world].
+struct FittedSurface {
+  const ProfileModel* model = nullptr;
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();
+  Eigen::Vector3d z = Eigen::Vector3d::UnitZ();
+  /// [m] end-frame z below which the model is not trusted (worn tong: trustedMinZ).
+  double min_z = -std::numeric_limits<double>::infinity();
+  /// [m] world height below which points are not used (a support under the joint).
+  double min_world_z = -std::numeric_limits<double>::infinity();
+};
+
+/// The observation of one camera (at `eye`, world) on one fitted end from its points [world]:
+/// a few passes of a translation-only ICP, the points within `gate` of the surface in the first,
+/// those within 0.3 gate of the surface moved by the shift so far in the others. At most 800
+/// points are read (every k-th).
+ShiftObservation observeShift(const std::vector<Eigen::Vector3f>& points,
+                              const Eigen::Vector3d& eye, const FittedSurface& surface,
+                              double gate);
+
+/// One camera's state in the drift watch.
+struct CameraDriftStatus {
+  std::string camera;
+  double ray_shift = 0.0;  ///< [m] running shift along the view ray (+: away from the camera)
+  double rotation = 0.0;   ///< [deg] running rotation (lateral offset / range)
+  /// [rad] running lateral offset over the range (a world direction; its norm is rotation)
+  Eigen::Vector3d lateral = Eigen::Vector3d::Zero();
+  bool flagged = false;    ///< disagrees with the fused fit (hysteresis, see the file comment)
+  bool left_out = false;   ///< its points were left out of this cycle's fit
+  bool measured = false;   ///< observed in this cycle
+  size_t points = 0;       ///< points of this cycle's observation
+  int64_t last_stamp_ns = 0;  ///< capture stamp of its last observation (0: never)
+  int64_t flagged_since_ns = 0;  ///< capture stamp at which it was flagged (with flagged)
+};
+
+/// The running per-camera estimates and flags.
+class DriftWatch {
+ public:
+  DriftWatch() = default;
+  explicit DriftWatch(const EstimatorConfig::Drift& config) : config_(config) {}
+  /// One cycle's observations by camera at capture time stamp_ns [ns]. Cameras without one keep
+  /// their estimate and flag (measured = false).
+  void update(int64_t stamp_ns, const std::map<std::string, ShiftObservation>& observations);
+  bool flagged(const std::string& camera) const;
+  /// How far past its limits a camera is: max(|ray shift| / max_ray_shift, rotation /
+  /// max_rotation) (0 for an unknown camera).
+  double excess(const std::string& camera) const;
+  /// Every camera seen so far, by name.
+  std::vector<CameraDriftStatus> status() const;
+  void reset() { cams_.clear(); }
+
+ private:
+  /// One camera's sample (ray shift [m] with the cycle's common part off, lateral angle [rad]).
+  void updateCamera(int64_t stamp_ns, double ray, const Eigen::Vector3d& angle, size_t points,
+                    CameraDriftStatus* s) const;
+  EstimatorConfig::Drift config_;
+  std::map<std::string, CameraDriftStatus> cams_;
+};
+
+/// "shift along the ray +12.3 mm, rotation 0.45 deg (lateral 23.4 mm)" for a message.
+std::string describeDrift(const CameraDriftStatus& s);
+
+}  // namespace drill_pipe_pose
