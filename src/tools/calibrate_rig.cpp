@@ -21,6 +21,7 @@
 #include <fstream>
 #include <iostream>
 #include <optional>
+#include <set>
 #include <string>
 
 #include "drill_pipe_pose/core/calibration/placements.hpp"
@@ -93,7 +94,8 @@ void writeReport(const std::string& path, const CalibrationResult& r,
     << "\ncameras:\n";
   for (size_t i = 0; i < r.cameras.size(); ++i) {
     const CameraResult& c = r.cameras[i];
-    f << "  - {name: " << c.name << ", placements: " << c.placements << ", corners: " << c.corners
+    f << "  - {name: " << c.name << ", placements: " << c.placements
+      << ", observations: " << c.observations << ", corners: " << c.corners
       << ", corner_rms_px: " << c.corner_rms_px << ", depth_offset: " << c.depth_offset
       << ", depth_scale: " << c.depth_scale << ", depth_rms: " << c.depth_rms
       << ", sigma_depth_offset: " << c.sigma_depth_offset << ", intrinsics: {fx: " << c.intrinsics.fx
@@ -133,9 +135,10 @@ void writeRig(const std::string& path, const std::string& source, const Calibrat
 }
 
 /// The observations of a recorded calibration: the bag's frames, still ones grouped into
-/// placements, one observation per camera and placement; CAL.yaml's target and anchor.
+/// placements, up to `frames_per_placement` observations per camera and placement; CAL.yaml's
+/// target and anchor.
 ObservationSet observationsFromBag(const std::string& bag, const std::string& config,
-                                   const CalibrationBagOptions& options) {
+                                   const CalibrationBagOptions& options, int frames_per_placement) {
   ObservationSet set = loadCalibrationConfig(config);
   std::fprintf(stderr, "calibrate_rig: reading %s\n", bag.c_str());
   const CalibrationBagFrames read = readCalibrationBag(
@@ -145,7 +148,7 @@ ObservationSet observationsFromBag(const std::string& bag, const std::string& co
   if (set.anchor.camera && set.findCamera(*set.anchor.camera) < 0)
     fail(config, ": anchor camera '", *set.anchor.camera, "' is not in the bag ", bag);
   const PlacementGroups groups = groupPlacements(read.frames);
-  set.observations = selectObservations(read.frames, groups);
+  set.observations = selectObservations(read.frames, groups, frames_per_placement);
   std::fprintf(stderr, "calibrate_rig: %d still placements (frame period %.3f s)\n", groups.count,
                groups.frame_period);
   for (size_t c = 0; c < set.cameras.size(); ++c) {
@@ -155,8 +158,10 @@ ObservationSet observationsFromBag(const std::string& bag, const std::string& co
         seen += !read.frames[i].corners.empty();
         still += groups.placement[i] >= 0;
       }
-    int placements = 0;
-    for (const Observation& o : set.observations) placements += o.camera == set.cameras[c].name;
+    std::set<int> distinct;
+    for (const Observation& o : set.observations)
+      if (o.camera == set.cameras[c].name) distinct.insert(o.placement);
+    const int placements = static_cast<int>(distinct.size());
     std::fprintf(stderr,
                  "calibrate_rig: %s: %d frames, target in %d, still %d, at %d placements\n",
                  set.cameras[c].name.c_str(), read.frames_per_camera[c], seen, still, placements);
@@ -172,6 +177,7 @@ ObservationSet observationsFromBag(const std::string& bag, const std::string& co
 int main(int argc, char** argv) {
   std::string obs_path, bag_path, config_path, save_path, out_path, true_path, report_path;
   CalibrationBagOptions bag_opt;
+  int frames_per_placement = 3;
   bool depth_scale = false, intrinsics = false, no_depth = false, plain = false;
   SolverOptions opt;
   CLI::App app{"Calibrates a rig (every camera's pose in the world, its depth offset) from an "
@@ -194,6 +200,11 @@ int main(int argc, char** argv) {
                  "with --bag: the image the target is found in, relative to the camera")
       ->capture_default_str()
       ->needs(bag_o);
+  app.add_option("--frames-per-placement", frames_per_placement,
+                 "still frames per camera and placement used from a bag (each a measurement of "
+                 "the same board pose; 3: a board held 2 s at the recorder's 2 Hz)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
   app.add_option("--save-observations", save_path,
                  "with --bag: write the observations extracted from it (YAML)")
       ->needs(bag_o);
@@ -224,7 +235,8 @@ int main(int argc, char** argv) {
   try {
     const std::string source = bag_path.empty() ? obs_path : bag_path;
     const ObservationSet set = bag_path.empty() ? loadObservations(obs_path)
-                                                : observationsFromBag(bag_path, config_path, bag_opt);
+                                                : observationsFromBag(bag_path, config_path, bag_opt,
+                                                                     frames_per_placement);
     if (!save_path.empty()) saveObservations(set, save_path);
     std::fprintf(stderr, "calibrate_rig: %zu cameras, %zu observations from %s\n",
                  set.cameras.size(), set.observations.size(), source.c_str());

@@ -18,16 +18,20 @@ std::vector<size_t> byStamp(const std::vector<Observation>& frames) {
   return order;
 }
 
-/// True when `b` shows the same corners as `a` (same ids) within `max_px`.
+/// True when `b` shows the same corners as `a` within `max_px`: at least 6 shared ids (a PnP's
+/// minimum in the solver), three quarters of either frame's corners, every shared one within.
 bool sameCorners(const Observation& a, const Observation& b, double max_px) {
-  if (a.corners.empty() || a.corners.size() != b.corners.size()) return false;
+  if (a.corners.empty() || b.corners.empty()) return false;
   std::map<int, Eigen::Vector2d> uv;
   for (const CornerObservation& c : a.corners) uv[c.id] = c.uv;
+  size_t shared = 0;
   for (const CornerObservation& c : b.corners) {
     const auto it = uv.find(c.id);
-    if (it == uv.end() || (it->second - c.uv).norm() > max_px) return false;
+    if (it == uv.end()) continue;
+    if ((it->second - c.uv).norm() > max_px) return false;
+    ++shared;
   }
-  return true;
+  return shared >= 6 && 4 * shared >= 3 * std::max(a.corners.size(), b.corners.size());
 }
 
 /// The median interval between a camera's consecutive frames (0 when no camera has two).
@@ -70,23 +74,21 @@ PlacementGroups groupPlacements(const std::vector<Observation>& frames,
 }
 
 std::vector<Observation> selectObservations(const std::vector<Observation>& frames,
-                                            const PlacementGroups& groups) {
-  // (placement, camera) -> the chosen frame
-  std::map<std::pair<int, std::string>, size_t> best;
-  for (size_t i = 0; i < frames.size(); ++i) {
-    const int p = groups.placement.at(i);
-    if (p < 0) continue;
-    const auto key = std::make_pair(p, frames[i].camera);
-    const auto it = best.find(key);
-    if (it == best.end())
-      best[key] = i;
-    else if (frames[i].corners.size() > frames[it->second].corners.size() ||
-             (frames[i].corners.size() == frames[it->second].corners.size() &&
-              frames[i].stamp < frames[it->second].stamp))
-      it->second = i;
-  }
+                                            const PlacementGroups& groups, int max_frames) {
+  // (placement, camera) -> its still frames, best first
+  std::map<std::pair<int, std::string>, std::vector<size_t>> still;
+  for (size_t i = 0; i < frames.size(); ++i)
+    if (groups.placement.at(i) >= 0) still[{groups.placement[i], frames[i].camera}].push_back(i);
   std::vector<size_t> chosen;
-  for (const auto& kv : best) chosen.push_back(kv.second);
+  for (auto& [key, list] : still) {
+    std::stable_sort(list.begin(), list.end(), [&](size_t a, size_t b) {
+      return frames[a].corners.size() > frames[b].corners.size() ||
+             (frames[a].corners.size() == frames[b].corners.size() &&
+              frames[a].stamp < frames[b].stamp);
+    });
+    for (size_t k = 0; k < list.size() && static_cast<int>(k) < max_frames; ++k)
+      chosen.push_back(list[k]);
+  }
   std::stable_sort(chosen.begin(), chosen.end(), [&](size_t a, size_t b) {
     return groups.placement[a] < groups.placement[b] ||
            (groups.placement[a] == groups.placement[b] && a < b);

@@ -461,9 +461,11 @@ void pruneOutliers(const ObservationSet& set, const std::vector<Eigen::Vector3d>
 
 void checkCoverage(const ObservationSet& set, const std::vector<Obs>& obs, const InitialRig& rig,
                    const SolverOptions& opt) {
-  std::vector<int> count(set.cameras.size(), 0);
+  std::vector<std::set<int>> seen(set.cameras.size());
   for (const Obs& o : obs)
-    if (!o.rejected) ++count[o.camera];
+    if (!o.rejected) seen[o.camera].insert(o.placement);
+  std::vector<int> count;
+  for (const auto& s : seen) count.push_back(static_cast<int>(s.size()));
   for (size_t c = 0; c < set.cameras.size(); ++c)
     if (count[c] < opt.min_placements)
       fail("camera ", set.cameras[c].name, ": saw the target in ", count[c],
@@ -530,12 +532,15 @@ CalibrationResult calibrate(const ObservationSet& set, const SolverOptions& opt)
     cr.intrinsics.fx = k[0], cr.intrinsics.fy = k[1], cr.intrinsics.cx = k[2], cr.intrinsics.cy = k[3];
     cr.intrinsics.D = {k[4], k[5], k[6], k[7], k[8]};
     std::vector<double> ce, de;
+    std::set<int> placements;
     for (const Obs& o : obs) {
       if (o.rejected || o.camera != static_cast<int>(c)) continue;
-      ++cr.placements;
+      placements.insert(o.placement);
+      ++cr.observations;
       for (double e : cornerErrors(o, X, b)) ce.push_back(e);
       for (double e : depthErrors(o, set.cameras[c], b)) de.push_back(e);
     }
+    cr.placements = static_cast<int>(placements.size());
     cr.corners = static_cast<int>(ce.size());
     cr.depth_samples = static_cast<int>(de.size());
     cr.corner_rms_px = rms(ce);

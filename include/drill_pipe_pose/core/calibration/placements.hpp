@@ -3,8 +3,9 @@
 // still frames belong to the same placement. ROS-free; the bag reader (calibrate_rig --bag) feeds
 // it one Observation per recorded frame (extractObservation, `placement` unset) in any order.
 //
-// A frame is still when the target's corners agree with the same camera's previous frame (same
-// ids, every corner within `max_corner_motion_px`): frames taken while the board moves, and the
+// A frame is still when the target's corners agree with the same camera's previous frame (at
+// least 6 shared ids, three quarters of either frame's, every shared corner within
+// `max_corner_motion_px`: a board seen in part may gain or lose a corner between frames): frames taken while the board moves, and the
 // first frame after a move, are skipped. The still frames of all cameras, in time order, form
 // one placement as long as no gap between consecutive still frames is longer than
 // `gap_frame_periods` frame periods; a longer gap (the board was carried) starts the next one.
@@ -46,10 +47,11 @@ struct PlacementGroups {
 PlacementGroups groupPlacements(const std::vector<Observation>& frames,
                                 const PlacementOptions& options = {});
 
-/// One observation per camera and placement, with `placement` set: of that camera's still
-/// frames in the placement, the one with the most corners (the earliest among equals). In the
-/// order of placement, then of `frames`.
+/// Up to `max_frames` observations per camera and placement, with `placement` set: of that
+/// camera's still frames in the placement, those with the most corners (the earliest among
+/// equals); each is a measurement of the same target pose with its own noise, so the solver
+/// averages them. In the order of placement, then of `frames`.
 std::vector<Observation> selectObservations(const std::vector<Observation>& frames,
-                                            const PlacementGroups& groups);
+                                            const PlacementGroups& groups, int max_frames = 1);
 
 }  // namespace drill_pipe_pose::calibration

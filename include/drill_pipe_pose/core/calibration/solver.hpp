@@ -27,7 +27,8 @@
 namespace drill_pipe_pose::calibration {
 
 struct SolverOptions {
-  /// A camera needs corners of this many placements (after rejections) to be calibrated.
+  /// A camera needs corners of this many distinct placements (after rejections) to be
+  /// calibrated.
   int min_placements = 4;
   /// An observation needs this many corners to enter (a PnP on fewer is unreliable).
   int min_corners = 6;
@@ -59,7 +60,8 @@ struct CameraResult {
   double depth_offset = 0.0;  ///< [m]
   double depth_scale = 1.0;
   Intrinsics intrinsics;      ///< as estimated (= the input when not estimated)
-  int placements = 0;         ///< observations used
+  int placements = 0;         ///< placements it saw (after rejections)
+  int observations = 0;       ///< observations used (several frames of a placement each count)
   int corners = 0;            ///< corners used
   int depth_samples = 0;      ///< depth samples used
   double corner_rms_px = 0.0;
