@@ -99,6 +99,7 @@ cal::ObservationSet capture(sim::RigSimulator& sim, const sim::CalibrationTarget
 int main(int argc, char** argv) {
   std::string rig = "config/rigs/thesis_lab.yaml", scene, out, true_rig;
   int frames = 1;
+  std::vector<std::string> effects_off;
   sim::SimulatorOptions opt;
   opt.color = true;
   opt.color_scale = 2;  // the Kinect v2's HD colour image
@@ -123,8 +124,23 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::Range(1, 30));
   app.add_option("--sensors", opt.sensor_config_dir, "folder of the sensor intrinsics files");
+  app.add_option("--effect-off", effects_off,
+                 "switch one of the profile's sensor effects off by name (repeatable), to see "
+                 "what each costs the calibration")
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
+      ->expected(1)
+      ->option_text("EFFECT ...")
+      ->check(tools::throwingCheck("EFFECT", [](const std::string& v) {
+        sim::SensorEffects fx;
+        sim::switchOffEffect(&fx, v);
+      }));
   tools::parseOrExit(app, argc, argv);
   try {
+    if (!effects_off.empty()) {
+      sim::SensorEffects fx = sim::sensorProfile(opt.profile);
+      for (const std::string& e : effects_off) sim::switchOffEffect(&fx, e);
+      opt.effects = fx;
+    }
     auto sim = sim::loadScenario(rig, scene, opt);
     const sim::SceneConfig cfg = sim::loadSceneConfig(scene);
     if (!cfg.calibration_target) fail(scene, ": no calibration_target");
