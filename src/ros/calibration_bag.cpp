@@ -60,27 +60,6 @@ std::vector<std::string> findCameras(const rosbag::Bag& bag, const CalibrationBa
   return o.cameras;
 }
 
-cal::Intrinsics intrinsicsOf(const sensor_msgs::CameraInfo& m, const std::string& where) {
-  cal::Intrinsics k;
-  k.width = static_cast<int>(m.width);
-  k.height = static_cast<int>(m.height);
-  k.fx = m.K[0];
-  k.fy = m.K[4];
-  k.cx = m.K[2];
-  k.cy = m.K[5];
-  if (!(k.fx > 0) || !(k.fy > 0) || k.width <= 0 || k.height <= 0)
-    fail(where, ": camera_info has no usable K or size (fx ", k.fx, ", fy ", k.fy, ", ", k.width,
-         "x", k.height, ")");
-  for (size_t i = 0; i < m.D.size(); ++i) {
-    if (i < 5)
-      k.D[i] = m.D[i];
-    else if (m.D[i] != 0.0)
-      fail(where, ": distortion model '", m.distortion_model, "' with ", m.D.size(),
-           " coefficients; only plumb_bob (5) is supported");
-  }
-  return k;
-}
-
 /// The cameras' setups from their CameraInfos and /tf_static.
 std::vector<cal::CameraSetup> readSetups(const rosbag::Bag& bag, const std::vector<std::string>& cams,
                                          const CalibrationBagOptions& o, const std::string& path) {
@@ -109,8 +88,10 @@ std::vector<cal::CameraSetup> readSetups(const rosbag::Bag& bag, const std::vect
       if (!infos.count(topic)) fail("bag '", path, "': camera ", c, ": no message on ", topic);
     cal::CameraSetup s;
     s.name = c;
-    s.intrinsics = intrinsicsOf(*infos[t.image_info], "bag '" + path + "': " + t.image_info);
-    s.depth_intrinsics = intrinsicsOf(*infos[t.depth_info], "bag '" + path + "': " + t.depth_info);
+    s.intrinsics = cal::intrinsicsFromCameraInfo(fromMsg(*infos[t.image_info]),
+                                                 "bag '" + path + "': " + t.image_info);
+    s.depth_intrinsics = cal::intrinsicsFromCameraInfo(fromMsg(*infos[t.depth_info]),
+                                                       "bag '" + path + "': " + t.depth_info);
     const std::string key = conventions::colorOpticalFrame(c) + " " + conventions::depthOpticalFrame(c);
     const auto it = tf.find(key);
     if (it == tf.end())

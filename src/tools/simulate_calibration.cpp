@@ -33,17 +33,6 @@ namespace cal = drill_pipe_pose::calibration;
 
 namespace {
 
-cal::Intrinsics intrinsicsOf(const CameraInfoData& info) {
-  cal::Intrinsics k;
-  k.width = static_cast<int>(info.width);
-  k.height = static_cast<int>(info.height);
-  k.fx = info.K[0];
-  k.fy = info.K[4];
-  k.cx = info.K[2];
-  k.cy = info.K[5];
-  return k;
-}
-
 /// Renders and extracts every (placement, camera, frame); prints progress and the coverage.
 cal::ObservationSet capture(sim::RigSimulator& sim, const sim::CalibrationTargetConfig& tc,
                             int frames) {
@@ -55,8 +44,8 @@ cal::ObservationSet capture(sim::RigSimulator& sim, const sim::CalibrationTarget
   for (size_t i = 0; i < sim.numCameras(); ++i) {
     cal::CameraSetup c;
     c.name = sim.cameraName(i);
-    c.intrinsics = intrinsicsOf(sim.colorInfo(i));
-    c.depth_intrinsics = intrinsicsOf(sim.depthInfo(i));
+    c.intrinsics = cal::intrinsicsFromCameraInfo(sim.colorInfo(i), c.name + " colour");
+    c.depth_intrinsics = cal::intrinsicsFromCameraInfo(sim.depthInfo(i), c.name + " depth");
     c.T_camera_depth = sim.T_link_depth(i);
     set.cameras.push_back(c);
   }

@@ -161,6 +161,27 @@ YAML::Node loadYaml(const std::string& text, const std::string& source) {
 
 }  // namespace
 
+Intrinsics intrinsicsFromCameraInfo(const CameraInfoData& m, const std::string& where) {
+  Intrinsics k;
+  k.width = static_cast<int>(m.width);
+  k.height = static_cast<int>(m.height);
+  k.fx = m.K[0];
+  k.fy = m.K[4];
+  k.cx = m.K[2];
+  k.cy = m.K[5];
+  if (!(k.fx > 0) || !(k.fy > 0) || k.width <= 0 || k.height <= 0)
+    fail(where, ": camera_info has no usable K or size (fx ", k.fx, ", fy ", k.fy, ", ", k.width,
+         "x", k.height, ")");
+  for (size_t i = 0; i < m.D.size(); ++i) {
+    if (i < 5)
+      k.D[i] = m.D[i];
+    else if (m.D[i] != 0.0)
+      fail(where, ": distortion model '", m.distortion_model, "' with ", m.D.size(),
+           " coefficients; only plumb_bob (5) is supported");
+  }
+  return k;
+}
+
 ObservationSet parseObservations(const std::string& text, const std::string& source) {
   const YAML::Node root = loadYaml(text, source);
   rejectUnknown(root, {"world_frame", "target", "anchor", "cameras", "observations"}, source);

@@ -16,6 +16,8 @@
 #include <string>
 #include <vector>
 
+#include "drill_pipe_pose/core/camera_model.hpp"
+
 namespace drill_pipe_pose::calibration {
 
 /// The printed target (core/calibration/target.hpp builds its corner positions and detects it).
@@ -86,6 +88,10 @@ struct ObservationSet {
   /// Index of camera `name`, or -1.
   int findCamera(const std::string& name) const;
 };
+
+/// A camera's intrinsics from its CameraInfo (K, plumb_bob D). Throws InputError naming `where`
+/// for a missing K or size, or more than 5 non-zero distortion coefficients.
+Intrinsics intrinsicsFromCameraInfo(const CameraInfoData& info, const std::string& where);
 
 /// YAML file of an ObservationSet (schema in docs/calibration.md). Throws InputError naming the
 /// file, the camera / observation and the field.
