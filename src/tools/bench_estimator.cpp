@@ -230,6 +230,8 @@ struct Tally {
   /// spent flagged; its last flag state.
   std::map<std::string, size_t> drift_flags, drift_cycles;
   std::map<std::string, bool> drift_state;
+  /// Per camera, the largest |shift along the ray| [m] and rotation [deg] it reached.
+  std::map<std::string, std::pair<double, double>> drift_max;
 };
 
 void tally(const CycleOutput& out, double ms, Tally* t) {
@@ -250,6 +252,9 @@ void tally(const CycleOutput& out, double ms, Tally* t) {
     }
     if (d.flagged) ++t->drift_cycles[d.camera];
     t->drift_state[d.camera] = d.flagged;
+    auto& mx = t->drift_max[d.camera];
+    mx.first = std::max(mx.first, std::abs(d.ray_shift));
+    mx.second = std::max(mx.second, d.rotation);
   }
   std::string cams;
   for (const auto& c : out.result.cameras_used) cams += (cams.empty() ? "" : "+") + c;
@@ -303,6 +308,11 @@ void report(const BenchOptions& o, const std::string& method, size_t n_cameras, 
   }
   for (const auto& [cam, n] : t.drift_cycles) flagged_cycles += n;
   std::cout << "drift flags: " << flags << (flags ? ":" + flagged_cams : "") << "\n";
+  std::cout << "drift largest |shift along the ray| [mm] / rotation [deg]:";
+  for (const auto& [cam, mx] : t.drift_max)
+    std::cout << " " << cam << " " << std::setprecision(1) << mx.first * 1e3 << " / "
+              << std::setprecision(2) << mx.second;
+  std::cout << "\n";
   std::cout << "DRIFT label=" << label << " method=" << method << " flags=" << flags
             << " flagged_cycles=" << flagged_cycles << "\n";
   // One machine-readable line per end for scripts/bench.

@@ -140,28 +140,54 @@ void DriftWatch::update(int64_t stamp_ns,
 void DriftWatch::updateCamera(int64_t stamp_ns, double ray, const Eigen::Vector3d& angle,
                               size_t points, CameraDriftStatus* st) const {
   CameraDriftStatus& s = *st;
-  // Exponential weight over capture time; the first observation starts the clock (the
-  // estimate rises from 0, so a camera is never flagged on one cycle).
-  const double dt = s.last_stamp_ns > 0 && stamp_ns > s.last_stamp_ns
-                        ? static_cast<double>(stamp_ns - s.last_stamp_ns) * 1e-9
-                        : 0.0;
-  const double a =
-      1.0 - std::exp(-std::min(dt, 5.0 * config_.time_constant) / config_.time_constant);
-  s.ray_shift += a * (ray - s.ray_shift);
-  s.lateral += a * (angle - s.lateral);  // averaged as an angle: the range may change
+  if (s.samples == 0) s.first_stamp_ns = stamp_ns;
+  ++s.samples;
+  const auto weight = [&s, stamp_ns](double time_constant) {
+    const double dt = s.last_stamp_ns > 0 && stamp_ns > s.last_stamp_ns
+                          ? static_cast<double>(stamp_ns - s.last_stamp_ns) * 1e-9
+                          : 0.0;
+    return 1.0 - std::exp(-std::min(dt, 5.0 * time_constant) / time_constant);
+  };
+  s.learning = static_cast<double>(stamp_ns - s.first_stamp_ns) * 1e-9 < config_.learn_time;
+  // Exponential weight over capture time; while learning, at least the plain mean's (the
+  // running figure starts as the mean of the camera's first samples, which becomes the
+  // baseline).
+  double a = weight(config_.time_constant);
+  if (s.learning) a = std::max(a, 1.0 / static_cast<double>(s.samples));
+  s.disagreement_ray += a * (ray - s.disagreement_ray);
+  s.disagreement_lateral += a * (angle - s.disagreement_lateral);  // an angle: the range varies
+  if (s.learning) {
+    s.baseline_ray = s.disagreement_ray;
+    s.baseline_lateral = s.disagreement_lateral;
+  } else if (!s.flagged && config_.baseline_time_constant > 0) {
+    const double ab = weight(config_.baseline_time_constant);
+    s.baseline_ray += ab * (ray - s.baseline_ray);
+    s.baseline_lateral += ab * (angle - s.baseline_lateral);
+  }
+  s.ray_shift = s.disagreement_ray - s.baseline_ray;
+  s.lateral = s.disagreement_lateral - s.baseline_lateral;
   s.rotation = s.lateral.norm() * 180.0 / M_PI;
   s.last_stamp_ns = stamp_ns;
   s.measured = true;
   s.points = points;
   const double ray_lim = config_.max_ray_shift, rot_lim = config_.max_rotation;
-  if (!s.flagged && (std::abs(s.ray_shift) > ray_lim || s.rotation > rot_lim)) {
+  const double absolute = absoluteExcess(s);
+  if (!s.flagged && !s.learning &&
+      (std::abs(s.ray_shift) > ray_lim || s.rotation > rot_lim || absolute > 1.0)) {
     s.flagged = true;
     s.flagged_since_ns = stamp_ns;
   } else if (s.flagged && std::abs(s.ray_shift) < config_.release_fraction * ray_lim &&
-             s.rotation < config_.release_fraction * rot_lim) {
+             s.rotation < config_.release_fraction * rot_lim &&
+             absolute < config_.release_fraction) {
     s.flagged = false;
     s.flagged_since_ns = 0;
   }
+}
+
+double DriftWatch::absoluteExcess(const CameraDriftStatus& s) const {
+  const double f = config_.absolute_factor;
+  return std::max(std::abs(s.disagreement_ray) / (f * config_.max_ray_shift),
+                  s.disagreement_lateral.norm() * 180.0 / M_PI / (f * config_.max_rotation));
 }
 
 bool DriftWatch::flagged(const std::string& camera) const {
@@ -172,8 +198,8 @@ bool DriftWatch::flagged(const std::string& camera) const {
 double DriftWatch::excess(const std::string& camera) const {
   const auto it = cams_.find(camera);
   if (it == cams_.end()) return 0.0;
-  return std::max(std::abs(it->second.ray_shift) / config_.max_ray_shift,
-                  it->second.rotation / config_.max_rotation);
+  return std::max({std::abs(it->second.ray_shift) / config_.max_ray_shift,
+                   it->second.rotation / config_.max_rotation, absoluteExcess(it->second)});
 }
 
 std::vector<CameraDriftStatus> DriftWatch::status() const {
@@ -184,9 +210,12 @@ std::vector<CameraDriftStatus> DriftWatch::status() const {
 }
 
 std::string describeDrift(const CameraDriftStatus& s) {
-  char buf[160];
-  std::snprintf(buf, sizeof buf, "shift along the view ray %+.1f mm, rotation %.2f deg",
-                s.ray_shift * 1e3, s.rotation);
+  char buf[240];
+  std::snprintf(buf, sizeof buf,
+                "shift along the view ray %+.1f mm, rotation %.2f deg since its baseline "
+                "(disagreement %+.1f mm, %.2f deg)",
+                s.ray_shift * 1e3, s.rotation, s.disagreement_ray * 1e3,
+                s.disagreement_lateral.norm() * 180.0 / M_PI);
   return buf;
 }
 

@@ -10,9 +10,13 @@
 // rotation (the lateral rest of t over the range: a rotated camera moves its points sideways by
 // about range x angle). The shift along the ray that the cycle's cameras share (their median,
 // with 3 or more measured) is taken off: it is no one camera's drift. Per camera, both are
-// averaged with an exponential weight of time
-// constant drift.time_constant [s] of capture time (DriftWatch). Hysteresis: flagged above
-// max_ray_shift or max_rotation, cleared when both fall below release_fraction of them.
+// averaged with an exponential weight of time constant drift.time_constant [s] of capture time
+// (DriftWatch). Each camera has views whose disagreement is not drift (the sensor's depth bias
+// differs with range and incidence), so its mean over its first drift.learn_time seconds is
+// learned as its baseline, and what is flagged is the change from it: above max_ray_shift or
+// max_rotation, cleared when both fall below release_fraction of them (hysteresis). A
+// disagreement above absolute_factor times the limits is flagged without a baseline (a camera
+// bumped before the watch learned).
 
 #include <Eigen/Core>
 #include <cstdint>
@@ -64,10 +68,20 @@ ShiftObservation observeShift(const std::vector<Eigen::Vector3f>& points,
 /// One camera's state in the drift watch.
 struct CameraDriftStatus {
   std::string camera;
-  double ray_shift = 0.0;  ///< [m] running shift along the view ray (+: away from the camera)
-  double rotation = 0.0;   ///< [deg] running rotation (lateral offset / range)
-  /// [rad] running lateral offset over the range (a world direction; its norm is rotation)
+  /// [m] running shift along the view ray since the baseline (+: away from the camera)
+  double ray_shift = 0.0;
+  double rotation = 0.0;   ///< [deg] running rotation since the baseline (lateral / range)
+  /// [rad] running lateral offset over the range since the baseline (a world direction; its
+  /// norm is rotation)
   Eigen::Vector3d lateral = Eigen::Vector3d::Zero();
+  /// The running disagreement itself, baseline included ([m] along the ray; [rad] lateral).
+  double disagreement_ray = 0.0;
+  Eigen::Vector3d disagreement_lateral = Eigen::Vector3d::Zero();
+  double baseline_ray = 0.0;  ///< [m] learned baseline (see the file comment)
+  Eigen::Vector3d baseline_lateral = Eigen::Vector3d::Zero();  ///< [rad]
+  bool learning = true;    ///< still learning its baseline (never flagged then)
+  size_t samples = 0;      ///< cycles it was measured in
+  int64_t first_stamp_ns = 0;  ///< capture stamp of its first observation
   bool flagged = false;    ///< disagrees with the fused fit (hysteresis, see the file comment)
   bool left_out = false;   ///< its points were left out of this cycle's fit
   bool measured = false;   ///< observed in this cycle
@@ -86,7 +100,8 @@ class DriftWatch {
   void update(int64_t stamp_ns, const std::map<std::string, ShiftObservation>& observations);
   bool flagged(const std::string& camera) const;
   /// How far past its limits a camera is: max(|ray shift| / max_ray_shift, rotation /
-  /// max_rotation) (0 for an unknown camera).
+  /// max_rotation, its absolute disagreement's ratio / absolute_factor) (0 for an unknown
+  /// camera).
   double excess(const std::string& camera) const;
   /// Every camera seen so far, by name.
   std::vector<CameraDriftStatus> status() const;
@@ -96,11 +111,13 @@ class DriftWatch {
   /// One camera's sample (ray shift [m] with the cycle's common part off, lateral angle [rad]).
   void updateCamera(int64_t stamp_ns, double ray, const Eigen::Vector3d& angle, size_t points,
                     CameraDriftStatus* s) const;
+  /// The ratio of the camera's absolute disagreement to the limits (see excess).
+  double absoluteExcess(const CameraDriftStatus& s) const;
   EstimatorConfig::Drift config_;
   std::map<std::string, CameraDriftStatus> cams_;
 };
 
-/// "shift along the ray +12.3 mm, rotation 0.45 deg (lateral 23.4 mm)" for a message.
+/// "shift along the view ray +12.3 mm, rotation 0.45 deg" (since the baseline) for a message.
 std::string describeDrift(const CameraDriftStatus& s);
 
 }  // namespace drill_pipe_pose
