@@ -232,6 +232,16 @@ struct Tally {
   std::map<std::string, bool> drift_state;
   /// Per camera, the largest |shift along the ray| [m] and rotation [deg] it reached.
   std::map<std::string, std::pair<double, double>> drift_max;
+  /// Per end: valid cycles per published type, and per type name the sum of its probability;
+  /// the last measured tool-joint OD [m] and its number of measurements.
+  struct Types {
+    size_t valid = 0;
+    std::map<std::string, size_t> top;
+    std::map<std::string, double> probability;
+    double od = 0.0, od_spread = 0.0;
+    size_t measurements = 0;
+  };
+  std::array<Types, kNumEnds> types;
 };
 
 void tally(const CycleOutput& out, double ms, Tally* t) {
@@ -255,6 +265,20 @@ void tally(const CycleOutput& out, double ms, Tally* t) {
     auto& mx = t->drift_max[d.camera];
     mx.first = std::max(mx.first, std::abs(d.ray_shift));
     mx.second = std::max(mx.second, d.rotation);
+  }
+  for (int e = 0; e < kNumEnds; ++e) {
+    const EndEstimate& est = out.result.ends[e];
+    if (!est.valid || est.type.empty()) continue;
+    Tally::Types& ty = t->types[e];
+    ++ty.valid;
+    ++ty.top[est.type];
+    for (size_t k = 0; k < est.type_names.size() && k < est.type_probabilities.size(); ++k)
+      ty.probability[est.type_names[k]] += est.type_probabilities[k];
+    if (est.type_measurements > 0) {
+      ty.od = est.measured_od;
+      ty.od_spread = est.measured_od_spread;
+      ty.measurements = est.type_measurements;
+    }
   }
   std::string cams;
   for (const auto& c : out.result.cameras_used) cams += (cams.empty() ? "" : "+") + c;
@@ -315,6 +339,26 @@ void report(const BenchOptions& o, const std::string& method, size_t n_cameras, 
   std::cout << "\n";
   std::cout << "DRIFT label=" << label << " method=" << method << " flags=" << flags
             << " flagged_cycles=" << flagged_cycles << "\n";
+  // Pipe types: per end, the published types' shares of its valid cycles and the mean probability
+  // of each candidate (one machine-readable TYPE line per end and type).
+  for (int e = 0; e < kNumEnds; ++e) {
+    const Tally::Types& ty = t.types[e];
+    if (!ty.valid) continue;
+    std::cout << std::fixed << "pipe type " << labelName(static_cast<EndLabel>(e)) << ": measured OD "
+              << std::setprecision(1) << ty.od * 1e3 << " mm (spread " << ty.od_spread * 1e3
+              << " mm, " << ty.measurements << " measurements);";
+    for (const auto& [name, n] : ty.top)
+      std::cout << " " << name << " " << std::setprecision(1) << 100.0 * n / ty.valid << " %";
+    std::cout << "\n";
+    for (const auto& [name, sum] : ty.probability) {
+      const auto it = ty.top.find(name);
+      std::cout << "TYPE label=" << label << " end=" << labelName(static_cast<EndLabel>(e))
+                << " type=" << name << std::setprecision(4)
+                << " top_share=" << (it == ty.top.end() ? 0.0 : 1.0 * it->second / ty.valid)
+                << " mean_probability=" << sum / ty.valid << " measured_od_mm=" << ty.od * 1e3
+                << "\n";
+    }
+  }
   // One machine-readable line per end for scripts/bench.
   for (const auto& ev : evals) {
     if (!ev.present) continue;

@@ -26,6 +26,9 @@ void validateConfig(const EstimatorConfig& c) {
     if (!(c.work_zone.min[i] < c.work_zone.max[i]))
       fail("estimator config: work_zone/min[", i, "] = ", c.work_zone.min[i],
            " must be < work_zone/max[", i, "] = ", c.work_zone.max[i]);
+  if (c.pipe_types.empty())
+    fail("estimator config: pipe_types is empty: name the pipe catalogue's entries an end may be "
+         "(or [all])");
   // Throws naming the bad dimension.
   toolJointProfile(EndLabel::kBoxEnd, c.dims);
   toolJointProfile(EndLabel::kPinEnd, c.dims);

@@ -175,10 +175,12 @@ bool InstanceFitter::decisionAxis(bool periodic, const Track& tr, const Eigen::V
           std::to_string(axis_pts.size()) + " points left after removing the support plane";
       return false;
     }
-    *axis = fitCylinderAxis(axis_pts, config_.dims.tool_joint_od / 2, config_.axis_fit);
+    // The known radius: that of the detected label's end type.
+    const double radius = ctx_.models.joint_radius[label_];
+    *axis = fitCylinderAxis(axis_pts, radius, config_.axis_fit);
     cd_.has_support = axis->ok && config_.profile_fit.support_clearance > 0 &&
-                      findLevelSupport(cd_.pts, axis->axis, config_.dims.tool_joint_od / 2,
-                                       config_.axis_fit, &cd_.support_z);
+                      findLevelSupport(cd_.pts, axis->axis, radius, config_.axis_fit,
+                                       &cd_.support_z);
   }
   timing_->segmentation_ms += msSince(t0);
   if (!axis->ok) {

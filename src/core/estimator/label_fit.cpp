@@ -67,8 +67,8 @@ Candidate chooseCandidate(const CycleContext& ctx, int l, std::vector<Candidate>
     fits[k] = {c.ok && (!any_native || c.fit.label == detected), c.fit.origin, c.fit.cost, {}};
     if (fits[k].competes && config.instances.radius_difference > 0)
       fits[k].radius = radiusOffset(ctx.models.models[static_cast<int>(c.fit.label)],
-                                    config.dims.tool_joint_od / 2, c.fit.origin, c.fit.z, c.pts,
-                                    c.eyes, c.fit.inlier_mask);
+                                    ctx.models.joint_radius[static_cast<int>(c.fit.label)],
+                                    c.fit.origin, c.fit.z, c.pts, c.eyes, c.fit.inlier_mask);
   }
   const InstanceChoice choice = chooseInstance(
       memory, fits, tracked_first ? 0 : -1, ctx.stamp_ns,

@@ -2,7 +2,8 @@
 // instances (per label: axis fit, hypotheses and decision, refinement), label corrections,
 // tracking, assignment of candidates to ends, temporal filter, covariance, output; around them
 // the drift watch (drift_watch.hpp): flagged cameras left out before the cut-out, every camera
-// measured against the fitted ends after the output.
+// measured against the fitted ends after the output; and each end's pipe type (pipe_type.hpp),
+// whose model the next cycles fit.
 
 #include "drill_pipe_pose/core/estimator/pose_estimator.hpp"
 
@@ -26,17 +27,55 @@
 
 namespace drill_pipe_pose {
 
+/// One published end's pipe type across cycles (pipe_type.hpp).
+struct EndType {
+  int type = 0;            ///< index into the candidates: the model the end is fitted with
+  TypeEvidence evidence;   ///< the measurements on the end's track
+  int64_t last_valid_ns = 0;  ///< capture stamp of the end's last valid cycle
+};
+
 /// Everything that lives across cycles, in one place (reset() clears it).
 struct EstimatorState {
   std::array<LabelState, kNumEnds> labels;  ///< per detected label
   std::array<EndPoseFilter, kNumEnds> filters;  ///< per published end
+  std::array<EndType, kNumEnds> types;          ///< per published end
   std::unique_ptr<ThesisBaseline> baseline;     ///< with method thesis_baseline
   DriftWatch drift;                             ///< per camera (EstimatorConfig::Drift)
 };
 
+/// The pipe types an end may take: the resolved candidates, or the one type of config.dims.
+std::vector<PipeCandidate> candidatesOf(const EstimatorConfig& config) {
+  if (!config.candidates.empty()) return config.candidates;
+  return {{config.pipe_type.empty() ? std::string("configured") : config.pipe_type, config.dims}};
+}
+
+/// The index of the candidate the models start from: pipe_type's, else the first whose geometry
+/// is config.dims, else 0.
+int startType(const EstimatorConfig& config, const std::vector<PipeCandidate>& cands) {
+  for (size_t k = 0; k < cands.size(); ++k)
+    if (cands[k].name == config.pipe_type) return static_cast<int>(k);
+  return 0;
+}
+
 struct PoseEstimator::Impl {
-  explicit Impl(const EstimatorConfig& config) : models(config) {}
-  const EndModels models;
+  explicit Impl(const EstimatorConfig& config)
+      : candidates(candidatesOf(config)), start(startType(config, candidates)) {
+    for (auto& t : state.types) t.type = start;
+  }
+  /// The models of the ends' current types (built once per pair of types).
+  const EndModels& models(const EstimatorConfig& config) {
+    const std::pair<int, int> key{state.types[0].type, state.types[1].type};
+    auto it = model_sets.find(key);
+    if (it == model_sets.end())
+      it = model_sets
+               .emplace(key, std::make_unique<EndModels>(config, candidates[key.first].dims,
+                                                         candidates[key.second].dims))
+               .first;
+    return *it->second;
+  }
+  const std::vector<PipeCandidate> candidates;
+  const int start;  ///< the type every end starts from
+  std::map<std::pair<int, int>, std::unique_ptr<EndModels>> model_sets;
   EstimatorState state;
 };
 
@@ -287,6 +326,52 @@ void outputEnd(int slot, const Candidate* cd, const std::array<Candidate, kNumEn
                                           range_sum / used.size(), z_hi - z_lo, config.covariance);
 }
 
+
+/// Stage "pipe type" for end `slot` with its candidate `cd` (null: none this cycle): the
+/// tool-joint radius measured with the pose eliminated (radiusOffset, absolute: the model's
+/// radius plus the offset) joins the end's evidence on its track, whose probabilities the end
+/// publishes; at a decision (not a tracked cycle) the end takes the top type when it is
+/// typing.switch_probability likely (its filter restarts: another model's origin). The evidence
+/// restarts when the end has had no pose for tracking.max_gap.
+void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
+                 const std::vector<PipeCandidate>& cands, int64_t stamp_ns,
+                 const EstimatorConfig& config, EndType* et, EndPoseFilter* filter,
+                 EndEstimate* e) {
+  if (!e->valid) {
+    if (et->last_valid_ns > 0 &&
+        static_cast<double>(stamp_ns - et->last_valid_ns) * 1e-9 > config.tracking.max_gap)
+      et->evidence.reset();
+    return;
+  }
+  et->last_valid_ns = stamp_ns;
+  if (config.typing.enabled && cd) {
+    const auto measure = [&](double radius, RadiusMean* mean) {
+      const RadiusCheck rc = radiusOffset(models.models[slot], radius, cd->fit.origin, cd->fit.z,
+                                          cd->pts, cd->eyes, cd->fit.inlier_mask);
+      if (rc.ok) mean->add(radius + rc.offset, rc.std);
+    };
+    measure(models.joint_radius[slot], &et->evidence.joint);
+    measure(models.tube_radius[slot], &et->evidence.tube);
+  }
+  const std::vector<double> p = et->evidence.probabilities(cands, config.typing);
+  const int top = topType(p);
+  if (cd && !cd->tracked && top >= 0 && top != et->type &&
+      p[top] >= config.typing.switch_probability &&
+      et->evidence.joint.count() >= static_cast<size_t>(config.typing.min_measurements)) {
+    et->type = top;
+    filter->reset();
+  }
+  e->type = cands[et->type].name;
+  e->type_names.clear();
+  for (const PipeCandidate& c : cands) e->type_names.push_back(c.name);
+  e->type_probabilities = p;
+  e->measured_od = 2 * et->evidence.joint.mean();
+  e->measured_od_spread = 2 * et->evidence.joint.spread();
+  e->type_measurements = et->evidence.joint.count();
+  e->measured_tube_od = 2 * et->evidence.tube.mean();
+  e->tube_measurements = et->evidence.tube.count();
+}
+
 }  // namespace
 
 PoseEstimator::PoseEstimator(const EstimatorConfig& config) : config_(config) {
@@ -305,6 +390,7 @@ void PoseEstimator::reset() {
   if (s.baseline) s.baseline->reset();
   for (auto& f : s.filters) f.reset();
   for (auto& l : s.labels) l = LabelState();
+  for (auto& t : s.types) t = EndType{impl_->start, {}, 0};
   s.drift.reset();
 }
 
@@ -351,7 +437,8 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
 
   // Instances, axis fit, hypotheses, refinement: per label (in parallel with threads >= 2;
   // the labels share nothing they write).
-  const CycleContext ctx{config_, impl_->models, cams, stamp_ns,
+  const EndModels& models = impl_->models(config_);
+  const CycleContext ctx{config_, models, cams, stamp_ns,
                          boxDecides(cams, state.labels[0].track, stamp_ns, config_.tracking)};
   std::array<Candidate, kNumEnds> cand;
   std::array<LabelTiming, kNumEnds> timing;
@@ -372,11 +459,14 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
   const std::array<bool, kNumEnds> held = holdLabelFlips(&cand, &state.labels, stamp_ns, config_);
   updateTracks(cand, held, &state.labels, stamp_ns, config_.tracking);
   const std::array<int, kNumEnds> owner = assignEnds(cand);
-  for (int slot = 0; slot < kNumEnds; ++slot)
-    outputEnd(slot, owner[slot] < 0 ? nullptr : &cand[owner[slot]], cand, cams, stamp_ns,
-              &state.filters[slot], config_, &result);
+  for (int slot = 0; slot < kNumEnds; ++slot) {
+    const Candidate* cd = owner[slot] < 0 ? nullptr : &cand[owner[slot]];
+    outputEnd(slot, cd, cand, cams, stamp_ns, &state.filters[slot], config_, &result);
+    classifyEnd(slot, cd, models, impl_->candidates, stamp_ns, config_, &state.types[slot],
+                &state.filters[slot], &result.ends[slot]);
+  }
   if (config_.drift.enabled)
-    watchDrift(cams, left_out, raw, cand, owner, impl_->models, stamp_ns, config_, &state.drift,
+    watchDrift(cams, left_out, raw, cand, owner, models, stamp_ns, config_, &state.drift,
                &result);
   result.timing.total_ms = msSince(t_start);
   return result;

@@ -8,7 +8,9 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <string>
+#include <vector>
 
+#include "drill_pipe_pose/core/estimator/pipe_type.hpp"
 #include "drill_pipe_pose/core/tool_joint.hpp"
 
 namespace drill_pipe_pose {
@@ -32,8 +34,22 @@ struct EstimatorConfig {
   /// independent fits on two cores); set 1 for single-threaded timing.
   int threads = 2;
 
-  /// Nominal tool-joint geometry the models are built from [m, deg].
+  /// Nominal tool-joint geometry the models are built from [m, deg]: the pipe type's
+  /// (pipe_type) once resolved (resolvePipeTypes, pipe_catalog.hpp).
   ToolJointDimensions dims;
+  /// The catalogue entry (config/pipe_catalog.yaml) the models start from; the tool_joint/*
+  /// figures that differ from their defaults override its own. "": tool_joint/* alone, and no
+  /// classification.
+  std::string pipe_type;
+  /// The catalogue entries an end may be classified as ("all": every one).
+  std::vector<std::string> pipe_types = {"all"};
+  /// The pipe catalogue file; "": the package's config/pipe_catalog.yaml.
+  std::string pipe_catalog;
+  /// The pipe types resolved from the catalogue (not a parameter: resolvePipeTypes fills it;
+  /// empty: the one type of dims, named pipe_type).
+  std::vector<PipeCandidate> candidates;
+  /// Classifying each end's type among the candidates (pipe_type.hpp).
+  TypingConfig typing;
 
   /// Axis-aligned box in the world frame; points outside are dropped right after the cut-out.
   struct WorkZone {

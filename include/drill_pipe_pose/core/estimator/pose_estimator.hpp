@@ -49,6 +49,18 @@ struct EndEstimate {
   /// The model and the axis direction came from this end's track (EstimatorConfig::Tracking):
   /// no full decision this cycle.
   bool tracked = false;
+  /// The end's pipe type (pipe_type.hpp): the candidate whose model it is fitted with, every
+  /// candidate's name and probability (EstimatorConfig::candidates' order), and what was
+  /// measured: the tool-joint OD [m] averaged on its track, its spread [m] and the number of
+  /// measurements (0: none yet); the tube's OD [m] where the model's tube was seen.
+  std::string type;
+  std::vector<std::string> type_names;
+  std::vector<double> type_probabilities;
+  double measured_od = 0.0;
+  double measured_od_spread = 0.0;
+  size_t type_measurements = 0;
+  double measured_tube_od = 0.0;
+  size_t tube_measurements = 0;
 };
 
 struct CycleTiming {

@@ -1,0 +1,99 @@
+// The pipe-type evidence of one end (core/estimator/pipe_type.hpp): deterministic measurements.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "drill_pipe_pose/core/estimator/pipe_type.hpp"
+
+using namespace drill_pipe_pose;
+
+namespace {
+
+PipeCandidate type(const char* name, double joint_od, double tube_od) {
+  PipeCandidate c;
+  c.name = name;
+  c.dims.tool_joint_od = joint_od;
+  c.dims.tube_od = tube_od;
+  return c;
+}
+
+/// 6-5/8" joints on a 4-1/2" and a 5" tube (the same joint OD), and a 7" joint on 5-1/2".
+const std::vector<PipeCandidate> kTypes{type("4.5_NC50", 0.1683, 0.1143),
+                                        type("5_NC50", 0.1683, 0.1270),
+                                        type("5.5_FH", 0.1778, 0.1397)};
+
+/// n joint measurements at radius r (alternating +-scatter), and m tube ones at radius t.
+TypeEvidence measured(double r, int n, double t = 0, int m = 0, double scatter = 0.001) {
+  TypeEvidence e;
+  for (int i = 0; i < n; ++i) e.joint.add(r + (i % 2 ? scatter : -scatter), 0.001);
+  for (int i = 0; i < m; ++i) e.tube.add(t + (i % 2 ? scatter : -scatter), 0.001);
+  return e;
+}
+
+}  // namespace
+
+TEST(PipeType, UniformWithoutAMeasurement) {
+  const std::vector<double> p = TypeEvidence().probabilities(kTypes, TypingConfig());
+  ASSERT_EQ(p.size(), 3u);
+  for (double v : p) EXPECT_NEAR(v, 1.0 / 3, 1e-12);
+  EXPECT_EQ(topType({}), -1);
+}
+
+TEST(PipeType, JointOdsTenMillimetresApartAreToldApart) {
+  // 9.5 mm apart (6-5/8" and 7"), the 6-5/8" one twice (two tubes): 1.4 % left to them.
+  const std::vector<double> p = measured(0.1778 / 2, 50).probabilities(kTypes, TypingConfig());
+  EXPECT_EQ(topType(p), 2);
+  EXPECT_GT(p[2], 0.98);
+  const std::vector<double> q = measured(0.1683 / 2 + 0.005, 50).probabilities(
+      {kTypes[1], type("10mm_larger", 0.1683 + 0.01, 0.127)}, TypingConfig());
+  EXPECT_LT(q[0], 0.01);  // the larger joint measured: the smaller one is out
+  EXPECT_GT(q[0], 0.0);
+  // The smaller joint measured: a worn larger one stays possible (wear allowance), yet below.
+  const std::vector<double> w = measured(0.1683 / 2, 50).probabilities(
+      {kTypes[1], type("10mm_larger", 0.1683 + 0.01, 0.127)}, TypingConfig());
+  EXPECT_EQ(topType(w), 0);
+  EXPECT_GT(w[0], 0.9);
+}
+
+TEST(PipeType, SameJointOdStaysAmbiguousUntilTheTubeIsSeen) {
+  const TypingConfig c;
+  const std::vector<double> p = measured(0.1683 / 2, 200).probabilities(kTypes, c);
+  EXPECT_NEAR(p[0], p[1], 1e-9);
+  EXPECT_LT(p[0], 0.51);  // never a confident answer
+  // A few tube measurements (fewer than min_measurements) do not count...
+  const std::vector<double> q =
+      measured(0.1683 / 2, 200, 0.1270 / 2, c.min_measurements - 1).probabilities(kTypes, c);
+  EXPECT_NEAR(q[0], q[1], 1e-9);
+  // ...enough of them (the tubes are 12.7 mm apart) decide.
+  const std::vector<double> t =
+      measured(0.1683 / 2, 200, 0.1270 / 2, c.min_measurements).probabilities(kTypes, c);
+  EXPECT_EQ(topType(t), 1);
+  EXPECT_GT(t[1], 0.99);
+}
+
+TEST(PipeType, AWornJointKeepsItsNominalType) {
+  // 3 mm under nominal OD: as likely as the nominal joint itself; the two 6-5/8" types, 6.5 mm
+  // under it, keep 8 % each (typing.systematic).
+  const std::vector<double> worn =
+      measured(0.1778 / 2 - 0.0015, 100).probabilities(kTypes, TypingConfig());
+  EXPECT_EQ(topType(worn), 2);
+  EXPECT_GT(worn[2], 0.8);
+}
+
+TEST(PipeType, ASharedBiasNeverMakesItConfident) {
+  // A joint read 2 mm large in radius (a depth bias every measurement shares) halfway to the
+  // next size: 10^4 measurements are no surer than 10, since the systematic part stays.
+  const double r = 0.1683 / 2 + 0.002;
+  const std::vector<double> few = measured(r, 10).probabilities(kTypes, TypingConfig());
+  const std::vector<double> many = measured(r, 10000).probabilities(kTypes, TypingConfig());
+  EXPECT_GT(many[2], 0.05) << "the next size stays possible";
+  EXPECT_NEAR(many[2], few[2], 0.05);
+}
+
+TEST(PipeType, BadMeasurementsAreIgnored) {
+  TypeEvidence e;
+  e.joint.add(std::nan(""), 0.001);
+  e.joint.add(0.08, std::numeric_limits<double>::infinity());
+  EXPECT_EQ(e.joint.count(), 0u);
+}
