@@ -1234,6 +1234,9 @@ TEST(PoseEstimator, AnotherPipeSizesEndIsNotTakenAndTwoAlikeGiveNoPose) {
   small.tool_joint_od = 0.1588;
   small.tube_od = 0.1143;
   small.box_counterbore_diameter = small.box_counterbore_diameter - 0.01;
+  // The pin still enters the counterbore (validateDimensions): Qc = DL + 1/16" as the API NC
+  // connections (Spec 7-2 Table B.1).
+  small.pin_large_diameter = small.box_counterbore_diameter - 0.0016;
   const Eigen::Isometry3d T_a = poseAt({4.5, 5.3, 1.23}, {0, 0, 1});
   for (const bool same : {false, true}) {
     SCOPED_TRACE(same ? "two 5 inch" : "5 inch and 4.5 inch");

@@ -133,7 +133,9 @@ TEST(ToolJoint, BadDimensionsAreNamed) {
     toolJointProfile(EndLabel::kBoxEnd, d);
     FAIL();
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("tube_od >= tool_joint_od"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("field tube_od = 0.2 must be < tool_joint_od = 0.1683"),
+              std::string::npos)
+        << e.what();
   }
   d = ToolJointDimensions();
   d.pin_length = -1;

@@ -11,12 +11,10 @@ double ToolJointDimensions::taperLength() const {
   return (tool_joint_od - tube_od) / 2.0 / std::tan(elevator_taper_deg * M_PI / 180.0);
 }
 
-namespace {
-
-void checkDimensions(const ToolJointDimensions& d) {
-  auto positive = [](double v, const char* name) {
-    if (!(v > 0.0) || !std::isfinite(v))
-      fail("tool joint dimensions: ", name, " = ", v, " must be finite and > 0");
+void validateDimensions(const ToolJointDimensions& d, const std::string& where) {
+  auto positive = [&](double v, const char* name) {
+    if (!std::isfinite(v) || !(v > 0.0))
+      fail(where, ": field ", name, " = ", v, " must be finite and > 0");
   };
   positive(d.tube_od, "tube_od");
   positive(d.tube_id, "tube_id");
@@ -30,22 +28,35 @@ void checkDimensions(const ToolJointDimensions& d) {
   positive(d.box_counterbore_diameter, "box_counterbore_diameter");
   positive(d.box_thread_depth, "box_thread_depth");
   positive(d.tube_length, "tube_length");
-  if (d.tube_id >= d.tube_od) fail("tool joint dimensions: tube_id >= tube_od");
-  if (d.tube_od >= d.tool_joint_od) fail("tool joint dimensions: tube_od >= tool_joint_od");
-  if (d.pin_large_diameter >= d.tool_joint_od)
-    fail("tool joint dimensions: pin_large_diameter >= tool_joint_od");
+  if (d.threads) {  // only read when the thread ridges are modelled
+    positive(d.threads_per_inch, "threads_per_inch");
+    positive(d.thread_height, "thread_height");
+  }
+  if (!std::isfinite(d.pin_taper) || d.pin_taper < 0.0)
+    fail(where, ": field pin_taper = ", d.pin_taper, " must be finite and >= 0");
+  if (!(d.elevator_taper_deg < 90.0))
+    fail(where, ": field elevator_taper_deg = ", d.elevator_taper_deg, " must be < 90");
+  // a < b, naming both fields.
+  auto less = [&](double a, const char* a_name, double b, const char* b_name) {
+    if (!(a < b)) fail(where, ": field ", a_name, " = ", a, " must be < ", b_name, " = ", b);
+  };
+  less(d.tube_id, "tube_id", d.tube_od, "tube_od");
+  less(d.tool_joint_id, "tool_joint_id", d.tool_joint_od, "tool_joint_od");
+  less(d.tube_od, "tube_od", d.tool_joint_od, "tool_joint_od");
+  less(d.pin_large_diameter, "pin_large_diameter", d.tool_joint_od, "tool_joint_od");
   const double pin_small = d.pin_large_diameter - d.pin_length * d.pin_taper;
-  if (pin_small <= d.tool_joint_id)
-    fail("tool joint dimensions: the pin cone (small end ", pin_small,
-         " m) is not larger than tool_joint_id = ", d.tool_joint_id);
-  if (d.box_counterbore_diameter >= d.tool_joint_od)
-    fail("tool joint dimensions: box_counterbore_diameter >= tool_joint_od");
+  if (!(pin_small > d.tool_joint_id))
+    fail(where, ": field tool_joint_id = ", d.tool_joint_id,
+         " must be < the pin cone's small end (pin_large_diameter - pin_length * pin_taper = ",
+         pin_small, ")");
+  if (!(d.box_counterbore_diameter > d.pin_large_diameter))
+    fail(where, ": field box_counterbore_diameter = ", d.box_counterbore_diameter,
+         " must be > pin_large_diameter = ", d.pin_large_diameter, " (the pin enters the box)");
+  less(d.box_counterbore_diameter, "box_counterbore_diameter", d.tool_joint_od, "tool_joint_od");
 }
 
-}  // namespace
-
 std::vector<ProfilePoint> toolJointProfile(EndLabel end, const ToolJointDimensions& d) {
-  checkDimensions(d);
+  validateDimensions(d, "tool joint dimensions");
   const double R = d.tool_joint_od / 2, Rt = d.tube_od / 2, Rit = d.tube_id / 2;
   const double Rij = d.tool_joint_id / 2, Lt = d.taperLength();
   std::vector<ProfilePoint> p;

@@ -41,6 +41,13 @@ struct ToolJointDimensions {
   double taperLength() const;
 };
 
+/// Checks a geometry: every length finite and > 0 (pin_taper >= 0; threads_per_inch and
+/// thread_height only with `threads`), the elevator taper below 90 deg, ID < OD for the tube and
+/// the joint, tube OD < joint OD, pin large diameter < joint OD, the pin cone's small end > joint
+/// ID, and the box counterbore between the pin large diameter and the joint OD. Throws InputError
+/// "<where>: field <name> = <value> must be ..." naming the field (and the one it is compared to).
+void validateDimensions(const ToolJointDimensions& d, const std::string& where);
+
 /// A point of a profile in the (z, r) half-plane of the pipe-end frame [m].
 struct ProfilePoint {
   double z = 0.0;
@@ -52,6 +59,7 @@ struct ProfilePoint {
 /// outline). Consecutive points are edges; the last point joins the first. Counter-clockwise with
 /// z as the first and r as the second coordinate: the solid lies left of each edge, so the outward
 /// normal of edge a -> b is (dr, -dz) / |(dz, dr)| in (z, r) components (profileNormal()).
+/// Throws InputError from validateDimensions(dims, "tool joint dimensions") on a bad geometry.
 std::vector<ProfilePoint> toolJointProfile(EndLabel end, const ToolJointDimensions& dims);
 
 /// Outward unit normal (in (z, r) components) of the profile edge a -> b.
