@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "drill_pipe_pose/core/errors.hpp"
+#include "drill_pipe_pose/core/estimator/estimator_config.hpp"
 #include "drill_pipe_pose/core/pipe_catalog.hpp"
 
 using namespace drill_pipe_pose;
@@ -325,7 +326,7 @@ TEST(PipeCatalog, ValidateDimensionsNamesTheField) {
   d = ToolJointDimensions();
   d.box_counterbore_diameter = 0.17;
   EXPECT_TRUE(contains(errorOfDims(d), "field box_counterbore_diameter = 0.17 must be < "
-                                       "tool_joint_od = 0.1683"));
+                                       "tool_joint_od = 0.168275"));
   d = ToolJointDimensions();
   d.elevator_taper_deg = 90;
   EXPECT_TRUE(contains(errorOfDims(d), "field elevator_taper_deg = 90 must be < 90"));
@@ -341,7 +342,75 @@ TEST(PipeCatalog, ValidateDimensionsNamesTheField) {
     FAIL();
   } catch (const InputError& e) {
     EXPECT_TRUE(contains(e.what(), "tool joint dimensions: field pin_large_diameter = 0.2 must "
-                                   "be < tool_joint_od = 0.1683"))
+                                   "be < tool_joint_od = 0.168275"))
         << e.what();
   }
+}
+
+// -- the estimator's pipe types from the catalogue (resolvePipeTypes)
+
+TEST(PipeTypes, DefaultsAreTheCataloguesNc50) {
+  // The simulator's and the estimator's default joint (ToolJointDimensions{}) is this entry.
+  const ToolJointDimensions d, c = shipped().at(EstimatorConfig().pipe_type).dims;
+  EXPECT_DOUBLE_EQ(d.tube_od, c.tube_od);
+  EXPECT_DOUBLE_EQ(d.tube_id, c.tube_id);
+  EXPECT_DOUBLE_EQ(d.tool_joint_od, c.tool_joint_od);
+  EXPECT_DOUBLE_EQ(d.tool_joint_id, c.tool_joint_id);
+  EXPECT_DOUBLE_EQ(d.elevator_taper_deg, c.elevator_taper_deg);
+  EXPECT_DOUBLE_EQ(d.pin_tong_length, c.pin_tong_length);
+  EXPECT_DOUBLE_EQ(d.box_tong_length, c.box_tong_length);
+  EXPECT_DOUBLE_EQ(d.pin_length, c.pin_length);
+  EXPECT_DOUBLE_EQ(d.pin_large_diameter, c.pin_large_diameter);
+  EXPECT_DOUBLE_EQ(d.pin_taper, c.pin_taper);
+  EXPECT_DOUBLE_EQ(d.box_counterbore_diameter, c.box_counterbore_diameter);
+  EXPECT_DOUBLE_EQ(d.box_thread_depth, c.box_thread_depth);
+  EXPECT_DOUBLE_EQ(d.tube_length, c.tube_length);
+}
+
+TEST(PipeTypes, ResolvesTheStartTypeWithOverridesAndTheCandidates) {
+  const PipeCatalog cat = shipped();
+  EstimatorConfig c;
+  c.pipe_type = "5.5in_FH_7.0od";
+  c.dims.box_tong_length = 0.25;  // an override (differs from the default)
+  resolvePipeTypes(&c, cat);
+  EXPECT_DOUBLE_EQ(c.dims.tool_joint_od, cat.at("5.5in_FH_7.0od").dims.tool_joint_od);
+  EXPECT_DOUBLE_EQ(c.dims.box_tong_length, 0.25);
+  ASSERT_EQ(c.candidates.size(), cat.types.size());  // [all]
+  for (const PipeCandidate& k : c.candidates)
+    if (k.name == c.pipe_type) EXPECT_DOUBLE_EQ(k.dims.box_tong_length, 0.25);
+  EstimatorConfig two;
+  two.pipe_types = {"5in_NC50_6.625od", "4.5in_NC46_6.25od"};
+  resolvePipeTypes(&two, cat);
+  ASSERT_EQ(two.candidates.size(), 2u);
+  EXPECT_EQ(two.candidates[1].name, "4.5in_NC46_6.25od");
+}
+
+TEST(PipeTypes, BadTypesStopWithTheNameAndTheField) {
+  const PipeCatalog cat = shipped();
+  const auto message = [&](EstimatorConfig c) {
+    try {
+      resolvePipeTypes(&c, cat);
+      validateConfig(c);
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EstimatorConfig unknown;
+  unknown.pipe_types = {"5in_NC50_6.625od", "7in_NC99"};
+  EXPECT_NE(message(unknown).find("7in_NC99"), std::string::npos) << message(unknown);
+  EstimatorConfig start;
+  start.pipe_type = "9in_XX";
+  EXPECT_NE(message(start).find("9in_XX"), std::string::npos) << message(start);
+  EstimatorConfig missing;
+  missing.pipe_types = {"4in_NC46_6.0od"};
+  EXPECT_NE(message(missing).find("not among pipe_types"), std::string::npos) << message(missing);
+  EstimatorConfig empty;
+  empty.pipe_types = {};
+  EXPECT_NE(message(empty).find("pipe_types is empty"), std::string::npos) << message(empty);
+  EstimatorConfig impossible;  // an override that breaks the geometry: ID >= OD
+  impossible.dims.tool_joint_id = 0.2;
+  const std::string m = message(impossible);
+  EXPECT_NE(m.find("tool_joint_id"), std::string::npos) << m;
+  EXPECT_NE(m.find("5in_NC50_6.625od"), std::string::npos) << m;
 }

@@ -66,7 +66,7 @@ TEST(ToolJoint, FramesFollowTheConvention) {
   }
   EXPECT_DOUBLE_EQ(zmax, d.pin_length);
   EXPECT_TRUE(shoulder);
-  EXPECT_NEAR(d.taperLength(), (0.1683 - 0.127) / 2 / std::tan(18 * M_PI / 180), 1e-12);
+  EXPECT_NEAR(d.taperLength(), (0.168275 - 0.127) / 2 / std::tan(18 * M_PI / 180), 1e-12);
 }
 
 TEST(ToolJoint, SampledSurfaceLiesOnTheProfileWithOutwardNormals) {
@@ -133,7 +133,7 @@ TEST(ToolJoint, BadDimensionsAreNamed) {
     toolJointProfile(EndLabel::kBoxEnd, d);
     FAIL();
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("field tube_od = 0.2 must be < tool_joint_od = 0.1683"),
+    EXPECT_NE(std::string(e.what()).find("field tube_od = 0.2 must be < tool_joint_od = 0.168275"),
               std::string::npos)
         << e.what();
   }

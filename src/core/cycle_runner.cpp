@@ -3,6 +3,7 @@
 #include <exception>
 
 #include "drill_pipe_pose/core/errors.hpp"
+#include "drill_pipe_pose/core/pipe_catalog.hpp"
 #include "drill_pipe_pose/core/rig_calibration.hpp"
 
 namespace drill_pipe_pose {
@@ -12,11 +13,23 @@ const EstimatorNodeConfig& validated(const EstimatorNodeConfig& config) {
   validateEstimatorNodeConfig(config);
   return config;
 }
+
+/// The estimator's configuration with its pipe types resolved from the catalogue (pipe_catalog;
+/// the node and the tools set the package's when it is empty).
+EstimatorConfig withPipeTypes(EstimatorConfig c) {
+  if (c.pipe_type.empty()) return c;
+  if (c.pipe_catalog.empty())
+    fail("estimator config: tool_joint/type = ", c.pipe_type,
+         " needs the pipe catalogue: set pipe_catalog to config/pipe_catalog.yaml's path");
+  resolvePipeTypes(&c, loadPipeCatalog(c.pipe_catalog));
+  validateConfig(c);
+  return c;
+}
 }  // namespace
 
 CycleRunner::CycleRunner(const EstimatorNodeConfig& config, TransformSource* transforms)
     : config_(validated(config)),
-      estimator_(config.estimator),
+      estimator_(withPipeTypes(config.estimator)),
       sync_(config.cameras, config.sync),
       transforms_(transforms) {
   if (!transforms_) fail("cycle runner: no transform source");

@@ -37,6 +37,7 @@
 
 #include "cli.hpp"
 #include "drill_pipe_pose/core/cycle_runner.hpp"
+#include "drill_pipe_pose/ros/estimator_params.hpp"
 #include "drill_pipe_pose/core/errors.hpp"
 #include "drill_pipe_pose/core/evaluation.hpp"
 #include "drill_pipe_pose/ros/conversions.hpp"
@@ -198,6 +199,7 @@ EstimatorNodeConfig makeConfig(const BenchOptions& o, const std::set<std::string
     applyParamString(estimatorNodeParamTable(), &cfg, key, value, "bench_estimator");
   for (const auto& [key, value] : o.params)
     applyParamString(estimatorNodeParamTable(), &cfg, key, value, "--param");
+  defaultPipeCatalog(&cfg.estimator);
   validateEstimatorNodeConfig(cfg);
   return cfg;
 }

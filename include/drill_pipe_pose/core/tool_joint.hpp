@@ -4,8 +4,7 @@
 // the shoulder from which the pin cone starts), z along the axis pointing out of the joint toward
 // its mate (box: out of the box opening; pin: toward the pin nose). Metres.
 //
-// Defaults are a 5" NC50 drill pipe (dimensions from memory of API 5DP: treat them as defaults, not
-// as a standard). Models are truncated like the thesis's lab samples: a short piece of tube below
+// Defaults are the pipe catalogue's 5" NC50 (config/pipe_catalog.yaml). Models are truncated like the thesis's lab samples: a short piece of tube below
 // the elevator taper, closed by a flat annulus.
 
 #include <Eigen/Core>
@@ -17,21 +16,23 @@
 
 namespace drill_pipe_pose {
 
-/// Dimensions of one drill pipe's tool joints [m, deg]. Defaults: 5" NC50.
+/// Dimensions of one drill pipe's tool joints [m, deg]. Defaults: the pipe catalogue's
+/// 5in_NC50_6.625od (config/pipe_catalog.yaml, docs/pipe_catalog.md: API Spec 7-2 Table B.1 for
+/// the connection, a Grant Prideco data sheet for the joint; a test holds them equal).
 struct ToolJointDimensions {
   double tube_od = 0.127;              ///< pipe body OD (5")
-  double tube_id = 0.1086;             ///< pipe body ID (5" 19.5 lb/ft: 4.276")
-  double tool_joint_od = 0.1683;       ///< tool-joint OD (6 5/8")
-  double tool_joint_id = 0.0826;       ///< tool-joint bore (3 1/4")
+  double tube_id = 0.10861;            ///< pipe body ID (5" 19.5 lb/ft: 4.276")
+  double tool_joint_od = 0.168275;     ///< tool-joint OD (6 5/8")
+  double tool_joint_id = 0.08255;      ///< tool-joint bore (3 1/4")
   double elevator_taper_deg = 18.0;    ///< angle between the elevator taper and the axis
-  double pin_tong_length = 0.229;      ///< pin tool joint: shoulder to start of the taper
-  double box_tong_length = 0.305;      ///< box tool joint: end face to start of the taper
-  double pin_length = 0.114;           ///< pin cone: shoulder to nose
-  double pin_large_diameter = 0.1270;  ///< pin cone diameter at the shoulder
-  double pin_taper = 1.0 / 6.0;        ///< diameter change per length of the pin cone (1:6)
+  double pin_tong_length = 0.2286;     ///< pin tool joint: shoulder to start of the taper (9")
+  double box_tong_length = 0.3048;     ///< box tool joint: end face to start of the taper (12")
+  double pin_length = 0.11431;         ///< pin cone: shoulder to nose (LPC)
+  double pin_large_diameter = 0.13335; ///< pin cone diameter at the shoulder (DL)
+  double pin_taper = 1.0 / 6.0;        ///< diameter change per length of the pin cone (2"/ft)
   double box_counterbore_diameter =
-      0.1313;                       ///< box bore at the end face (pin large dia + clearance)
-  double box_thread_depth = 0.140;  ///< depth of the box's threaded cone from the end face
+      0.13495;                        ///< box bore at the end face (Qc)
+  double box_thread_depth = 0.11748;  ///< depth of the box's threaded cone from the end face (LBT)
   bool threads = false;             ///< model the 4 TPI thread ridges on the pin / in the box
   double threads_per_inch = 4.0;
   double thread_height = 0.0031;  ///< radial height of a thread ridge

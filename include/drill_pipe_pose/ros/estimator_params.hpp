@@ -18,6 +18,9 @@ EstimatorConfig loadEstimatorConfig(const ros::NodeHandle& pnh);
 /// throws InputError naming the parameter; warns about keys in the namespace that no row has.
 EstimatorNodeConfig loadEstimatorNodeConfig(const ros::NodeHandle& pnh);
 
+/// Sets config->pipe_catalog to the package's config/pipe_catalog.yaml when it is empty.
+void defaultPipeCatalog(EstimatorConfig* config);
+
 /// One line per setting, for the start-up log.
 std::string describeEstimatorConfig(const EstimatorConfig& config);
 

@@ -39,8 +39,9 @@ struct EstimatorConfig {
   ToolJointDimensions dims;
   /// The catalogue entry (config/pipe_catalog.yaml) the models start from; the tool_joint/*
   /// figures that differ from their defaults override its own. "": tool_joint/* alone, and no
-  /// classification.
-  std::string pipe_type;
+  /// classification. The defaults of tool_joint/* are this entry's figures (a test holds them
+  /// equal).
+  std::string pipe_type = "5in_NC50_6.625od";
   /// The catalogue entries an end may be classified as ("all": every one).
   std::vector<std::string> pipe_types = {"all"};
   /// The pipe catalogue file; "": the package's config/pipe_catalog.yaml.
@@ -381,6 +382,14 @@ struct EstimatorConfig {
   } baseline;
 };
 
+struct PipeCatalog;
+/// Resolves the pipe types from the catalogue: config->dims becomes the entry pipe_type's
+/// geometry, except the tool_joint/* figures that differ from their defaults (overrides), and
+/// config->candidates the entries of pipe_types ("all": every one; pipe_type's with its
+/// overrides). Throws InputError naming the catalogue and the name: an unknown name, pipe_type
+/// not among pipe_types, an overridden geometry that validateDimensions rejects. Nothing to do
+/// with pipe_type "".
+void resolvePipeTypes(EstimatorConfig* config, const PipeCatalog& catalog);
 /// Checks every field against its range in the parameter table and the checks across fields
 /// (estimator_config.cpp); throws InputError naming the key (e.g. "carving/min_cameras").
 void validateConfig(const EstimatorConfig& config);
