@@ -15,16 +15,20 @@ const EstimatorNodeConfig& validated(const EstimatorNodeConfig& config) {
 }
 
 /// The estimator's configuration with its pipe types resolved from the catalogue (pipe_catalog;
-/// the node and the tools set the package's when it is empty).
+/// the node and the tools set the package's when it is empty). Without a catalogue the default
+/// type alone is known (its figures are tool_joint/*'s defaults): no classification.
 EstimatorConfig withPipeTypes(EstimatorConfig c) {
   if (c.pipe_type.empty()) return c;
-  if (c.pipe_catalog.empty())
+  if (c.pipe_catalog.empty()) {
+    if (c.pipe_type == EstimatorConfig().pipe_type) return c;
     fail("estimator config: tool_joint/type = ", c.pipe_type,
          " needs the pipe catalogue: set pipe_catalog to config/pipe_catalog.yaml's path");
+  }
   resolvePipeTypes(&c, loadPipeCatalog(c.pipe_catalog));
   validateConfig(c);
   return c;
 }
+
 }  // namespace
 
 CycleRunner::CycleRunner(const EstimatorNodeConfig& config, TransformSource* transforms)

@@ -4,10 +4,13 @@
 // CycleRunner does the work (as in bench_estimator); results out as messages (README "Topics").
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <drill_pipe_pose/EstimatorStatus.h>
+#include <drill_pipe_pose/PipeEndArray.h>
 #include <drill_pipe_pose/PipeEnds.h>
 #include <drill_pipe_pose/SensorFrame.h>
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <ros/ros.h>
+
+#include <algorithm>
 
 #include <sensor_msgs/PointCloud2.h>
 #include <sensor_msgs/point_cloud2_iterator.h>
@@ -56,6 +59,7 @@ class PoseEstimatorNode {
       pose_pubs_[e] = pnh_.advertise<geometry_msgs::PoseWithCovarianceStamped>(
           conventions::poseTopic(static_cast<EndLabel>(e)), 10);
     ends_pub_ = pnh_.advertise<PipeEnds>(conventions::kPipeEndsTopic, 10);
+    types_pub_ = pnh_.advertise<PipeEndArray>(conventions::kPipeEndTypesTopic, 10);
     status_pub_ = pnh_.advertise<EstimatorStatus>(conventions::kStatusTopic, 10);
     diag_pub_ = nh_.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 10);
     fused_pub_ = pnh_.advertise<sensor_msgs::PointCloud2>("debug/fused", 1);
@@ -145,6 +149,8 @@ class PoseEstimatorNode {
     PipeEnds ends;
     ends.header.stamp = stamp;
     ends.header.frame_id = cfg_.world_frame;
+    PipeEndArray typed;
+    typed.header = ends.header;
     EstimatorStatus status;
     status.header = ends.header;
     status.cameras_configured = cfg_.cameras;
@@ -185,6 +191,7 @@ class PoseEstimatorNode {
       status.points.push_back(est.points);
       status.residual.push_back(est.residual);
       status.instances.push_back(r.instances[e]);
+      typed.ends.push_back(typedEnd(end, pub));
       ends.ends.push_back(end);
     }
     if (out.pin_in_box) {
@@ -200,9 +207,31 @@ class PoseEstimatorNode {
     status.total_ms = r.timing.total_ms;
     status.message = message;
     ends_pub_.publish(ends);
+    types_pub_.publish(typed);
     status.latency_ms = (wallNow() - out.cycle.last_arrival) * 1e3;
     status_pub_.publish(status);
     publishDebug(r, stamp, out.inputs);
+  }
+
+  /// The end with its instance id and pipe type (of the estimate it publishes).
+  TypedPipeEnd typedEnd(const PipeEnd& end, const PublishedEnd& pub) const {
+    TypedPipeEnd t;
+    t.end = end;
+    if (!pub.valid) return t;
+    const EndEstimate& e = pub.estimate;
+    t.id = e.instance_id;
+    t.type = e.type;
+    t.candidates = e.type_names;
+    t.probabilities = e.type_probabilities;
+    double top = 0;
+    for (double p : e.type_probabilities) top = std::max(top, p);
+    t.ambiguous = top < cfg_.estimator.typing.switch_probability;
+    t.measured_od = e.measured_od;
+    t.measured_od_spread = e.measured_od_spread;
+    t.od_measurements = static_cast<uint32_t>(e.type_measurements);
+    t.measured_tube_od = e.measured_tube_od;
+    t.tube_measurements = static_cast<uint32_t>(e.tube_measurements);
+    return t;
   }
 
   void publishPose(int e, const EndEstimate& est, const ros::Time& stamp) {
@@ -267,6 +296,42 @@ class PoseEstimatorNode {
         m.action = visualization_msgs::Marker::DELETE;
       }
       ma.markers.push_back(m);
+      // Its axis (z: the direction a pose means for a pipe end) as an arrow, and its instance
+      // id, type and the type's probability as a label.
+      const EndEstimate& est = r.ends[e];
+      visualization_msgs::Marker arrow = m, label = m;
+      arrow.ns = m.ns + " axis";
+      arrow.type = visualization_msgs::Marker::ARROW;
+      arrow.mesh_resource.clear();
+      arrow.pose = geometry_msgs::Pose();
+      arrow.pose.orientation.w = 1.0;
+      arrow.scale.x = 0.02;  // shaft diameter [m]
+      arrow.scale.y = 0.04;  // head diameter
+      arrow.scale.z = 0.06;  // head length
+      label.ns = m.ns + " type";
+      label.type = visualization_msgs::Marker::TEXT_VIEW_FACING;
+      label.mesh_resource.clear();
+      label.scale.x = label.scale.y = label.scale.z = 0.07;
+      label.color.r = label.color.g = label.color.b = label.color.a = 1.0f;
+      if (est.valid) {
+        const Eigen::Vector3d o = est.T_world_end.translation();
+        const Eigen::Vector3d tip = o + 0.4 * est.T_world_end.linear().col(2);
+        geometry_msgs::Point a, b;
+        a.x = o.x(), a.y = o.y(), a.z = o.z();
+        b.x = tip.x(), b.y = tip.y(), b.z = tip.z();
+        arrow.points = {a, b};
+        double top = 0;
+        for (double p : est.type_probabilities) top = std::max(top, p);
+        char text[200];
+        std::snprintf(text, sizeof text, "%s #%u\n%s %.2f", m.ns.c_str(), est.instance_id,
+                      est.type.c_str(), top);
+        label.text = text;
+        label.pose.position = b;
+        label.pose.orientation = geometry_msgs::Quaternion();
+        label.pose.orientation.w = 1.0;
+      }
+      ma.markers.push_back(arrow);
+      ma.markers.push_back(label);
     }
     // Each camera's colour frustum (to frustum_range), in its optical frame.
     for (size_t i = 0; i < inputs.size(); ++i) {
@@ -435,7 +500,7 @@ class PoseEstimatorNode {
   ros::Subscriber static_tf_sub_;
   std::vector<ros::Subscriber> subs_;
   std::array<ros::Publisher, kNumEnds> pose_pubs_;
-  ros::Publisher ends_pub_, status_pub_, diag_pub_, fused_pub_, segmented_pub_, marker_pub_;
+  ros::Publisher ends_pub_, types_pub_, status_pub_, diag_pub_, fused_pub_, segmented_pub_, marker_pub_;
   ros::WallTimer poll_timer_, diag_timer_;
   std::map<std::string, Counters> counters_;
   std::map<std::string, CameraDriftStatus> drift_;  ///< the drift watch's last status per camera

@@ -9,6 +9,7 @@
 
 #include "drill_pipe_pose/core/conventions.hpp"
 #include "drill_pipe_pose/core/errors.hpp"
+#include "drill_pipe_pose/core/pipe_catalog.hpp"
 #include "drill_pipe_pose/core/pipe_end_frame.hpp"
 #include "drill_pipe_pose/sim/depth_effects.hpp"
 #include "drill_pipe_pose/sim/random.hpp"
@@ -562,8 +563,15 @@ RigSimulator::Frame RigSimulator::render(size_t camera, double t, uint64_t frame
 std::unique_ptr<RigSimulator> loadScenario(const std::string& rig_path,
                                            const std::string& scene_path,
                                            const SimulatorOptions& opt) {
-  return std::make_unique<RigSimulator>(loadRigCalibration(rig_path), loadSceneConfig(scene_path),
-                                        opt);
+  SceneConfig scene = loadSceneConfig(scene_path);
+  if (!opt.pipe_type.empty()) {
+    const PipeCatalog catalog = loadPipeCatalog(sceneCatalogPath(scene_path));
+    for (PipeConfig& p : scene.pipes) {
+      p.dims = catalog.at(opt.pipe_type).dims;
+      p.pipe_type = opt.pipe_type;
+    }
+  }
+  return std::make_unique<RigSimulator>(loadRigCalibration(rig_path), std::move(scene), opt);
 }
 
 }  // namespace drill_pipe_pose::sim

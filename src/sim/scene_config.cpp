@@ -3,9 +3,11 @@
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
+#include <filesystem>
 #include <set>
 
 #include "drill_pipe_pose/core/errors.hpp"
+#include "drill_pipe_pose/core/pipe_catalog.hpp"
 #include "drill_pipe_pose/core/pipe_end_frame.hpp"
 #include "drill_pipe_pose/sim/random.hpp"
 #include "drill_pipe_pose/sim/yaml_util.hpp"
@@ -360,6 +362,7 @@ SceneConfig parseRoot(const YAML::Node& root, const std::string& src) {
   if (!pipes.IsSequence() || pipes.size() == 0) fail(src, ": pipes: expected a non-empty sequence");
   std::vector<std::vector<Eigen::Isometry3d>> random_sets;
   std::set<std::string> names;
+  PipeCatalog catalog;  // loaded at the first pipe_type
   for (size_t i = 0; i < pipes.size(); ++i) {
     const YAML::Node n = pipes[i];
     const std::string w = src + ": pipes[" + std::to_string(i) + "]";
@@ -375,6 +378,17 @@ SceneConfig parseRoot(const YAML::Node& root, const std::string& src) {
       p.length = yamlGet<double>(n, "length", w);
     } else {
       fail(w, ": type: unknown pipe type \"", type, "\" (expected tool_joint or pipe)");
+    }
+    if (n["pipe_type"]) {
+      // A catalogue entry (the scene's pipe_catalog, else the package's beside config/scenes/),
+      // then the dimensions below as overrides (a worn or off-nominal joint).
+      p.pipe_type = yamlGet<std::string>(n, "pipe_type", w);
+      if (catalog.path.empty()) catalog = loadPipeCatalog(sceneCatalogPath(src));
+      try {
+        p.dims = catalog.at(p.pipe_type).dims;
+      } catch (const InputError& e) {
+        fail(w, ".pipe_type: ", e.what());
+      }
     }
     parseDimensions(n["dimensions"], &p.dims, w + ".dimensions");
     if (n["tube_length"]) p.dims.tube_length = yamlGet<double>(n, "tube_length", w);
@@ -418,6 +432,10 @@ SceneConfig parseSceneConfig(const std::string& yaml_text, const std::string& so
     fail(source, ": YAML syntax error: ", e.what());
   }
   return parseRoot(root, source);
+}
+
+std::string sceneCatalogPath(const std::string& scene_path) {
+  return (std::filesystem::path(scene_path).parent_path() / ".." / "pipe_catalog.yaml").string();
 }
 
 SceneConfig loadSceneConfig(const std::string& path) {

@@ -198,6 +198,9 @@ void addModelOptions(CLI::App& app, sim::SimulatorOptions* opt, ModelArgs* m) {
       ->expected(1)
       ->option_text("CAM:T:DX,DY,DZ[:ROLL,PITCH,YAW] ...")
       ->check(tools::throwingCheck("BUMP", [](const std::string& v) { sim::parseCameraBump(v); }));
+  app.add_option("--pipe-type", opt->pipe_type,
+                 "every pipe of the scene takes this pipe catalogue entry's geometry "
+                 "(config/pipe_catalog.yaml, e.g. 5.5in_FH_7.0od)");
   app.add_option("--effect-off", m->effects_off,
                  "switch one of the profile's sensor effects off by name (repeatable)")
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)

@@ -58,6 +58,8 @@ inline std::string poseTopic(EndLabel e) {
   return std::string(e == EndLabel::kBoxEnd ? kBoxEndLabel : kPinEndLabel) + "/pose";
 }
 constexpr const char* kPipeEndsTopic = "pipe_ends";
+/// Every end with its instance id and pipe type (PipeEndArray).
+constexpr const char* kPipeEndTypesTopic = "pipe_end_types";
 constexpr const char* kStatusTopic = "status";
 inline std::string groundTruthTopic(EndLabel e) {
   return std::string("/ground_truth/") + (e == EndLabel::kBoxEnd ? kBoxEndLabel : kPinEndLabel);

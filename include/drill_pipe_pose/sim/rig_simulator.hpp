@@ -67,6 +67,9 @@ struct SimulatorOptions {
   /// Cameras moved during the run (CameraBump); a camera with several takes the latest due.
   /// Empty: every frame as without the option.
   std::vector<CameraBump> bumps;
+  /// Every pipe of the scene takes this pipe catalogue entry's geometry (loadScenario; the
+  /// catalogue beside config/scenes/); "": the scene's own.
+  std::string pipe_type;
 };
 
 /// One capture of the schedule.

@@ -98,6 +98,7 @@ struct PipeConfig {
   Kind kind = Kind::kToolJoint;
   EndLabel end = EndLabel::kBoxEnd;  ///< tool_joint only
   ToolJointDimensions dims;          ///< nominal
+  std::string pipe_type;  ///< the catalogue entry its dims came from ("": the defaults)
   double length = 9.0;               ///< [m] whole pipe: box end face to pin shoulder
   std::string material = "yellow_paint";
   bool mud = true;
@@ -137,6 +138,9 @@ std::map<std::string, Material> builtinMaterials();
 
 /// Loads and validates a scene file; InputError names the file, the key and what was expected.
 SceneConfig loadSceneConfig(const std::string& path);
+/// The pipe catalogue a scene's `pipe_type:` names an entry of: the package's
+/// config/pipe_catalog.yaml, one folder above the scene's (config/scenes/).
+std::string sceneCatalogPath(const std::string& scene_path);
 /// The same from YAML text; `source` names it in errors.
 SceneConfig parseSceneConfig(const std::string& yaml_text, const std::string& source);
 

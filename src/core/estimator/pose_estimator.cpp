@@ -32,6 +32,7 @@ struct EndType {
   int type = 0;            ///< index into the candidates: the model the end is fitted with
   TypeEvidence evidence;   ///< the measurements on the end's track
   int64_t last_valid_ns = 0;  ///< capture stamp of the end's last valid cycle
+  uint32_t id = 0;            ///< the end's instance id (0: no track)
 };
 
 /// Everything that lives across cycles, in one place (reset() clears it).
@@ -39,6 +40,7 @@ struct EstimatorState {
   std::array<LabelState, kNumEnds> labels;  ///< per detected label
   std::array<EndPoseFilter, kNumEnds> filters;  ///< per published end
   std::array<EndType, kNumEnds> types;          ///< per published end
+  uint32_t next_id = 1;                         ///< the next instance id
   std::unique_ptr<ThesisBaseline> baseline;     ///< with method thesis_baseline
   DriftWatch drift;                             ///< per camera (EstimatorConfig::Drift)
 };
@@ -332,18 +334,23 @@ void outputEnd(int slot, const Candidate* cd, const std::array<Candidate, kNumEn
 /// radius plus the offset) joins the end's evidence on its track, whose probabilities the end
 /// publishes; at a decision (not a tracked cycle) the end takes the top type when it is
 /// typing.switch_probability likely (its filter restarts: another model's origin). The evidence
-/// restarts when the end has had no pose for tracking.max_gap.
+/// restarts when the end has had no pose for tracking.max_gap, and with it the end's instance
+/// id (a new one from *next_id).
 void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
                  const std::vector<PipeCandidate>& cands, int64_t stamp_ns,
                  const EstimatorConfig& config, EndType* et, EndPoseFilter* filter,
-                 EndEstimate* e) {
+                 uint32_t* next_id, EndEstimate* e) {
   if (!e->valid) {
     if (et->last_valid_ns > 0 &&
-        static_cast<double>(stamp_ns - et->last_valid_ns) * 1e-9 > config.tracking.max_gap)
+        static_cast<double>(stamp_ns - et->last_valid_ns) * 1e-9 > config.tracking.max_gap) {
       et->evidence.reset();
+      et->id = 0;
+    }
     return;
   }
   et->last_valid_ns = stamp_ns;
+  if (et->id == 0) et->id = (*next_id)++;
+  e->instance_id = et->id;
   if (config.typing.enabled && cd) {
     const auto measure = [&](double radius, RadiusMean* mean) {
       const RadiusCheck rc = radiusOffset(models.models[slot], radius, cd->fit.origin, cd->fit.z,
@@ -390,7 +397,7 @@ void PoseEstimator::reset() {
   if (s.baseline) s.baseline->reset();
   for (auto& f : s.filters) f.reset();
   for (auto& l : s.labels) l = LabelState();
-  for (auto& t : s.types) t = EndType{impl_->start, {}, 0};
+  for (auto& t : s.types) t = EndType{impl_->start, {}, 0, 0};  // ids go on: never reused
   s.drift.reset();
 }
 
@@ -463,7 +470,7 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
     const Candidate* cd = owner[slot] < 0 ? nullptr : &cand[owner[slot]];
     outputEnd(slot, cd, cand, cams, stamp_ns, &state.filters[slot], config_, &result);
     classifyEnd(slot, cd, models, impl_->candidates, stamp_ns, config_, &state.types[slot],
-                &state.filters[slot], &result.ends[slot]);
+                &state.filters[slot], &state.next_id, &result.ends[slot]);
   }
   if (config_.drift.enabled)
     watchDrift(cams, left_out, raw, cand, owner, models, stamp_ns, config_, &state.drift,

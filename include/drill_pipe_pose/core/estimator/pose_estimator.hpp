@@ -54,6 +54,9 @@ struct EndEstimate {
   /// measured: the tool-joint OD [m] averaged on its track, its spread [m] and the number of
   /// measurements (0: none yet); the tube's OD [m] where the model's tube was seen.
   std::string type;
+  /// Instance id of the end: kept while its track continues (typing's evidence with it), never
+  /// reused by this estimator; 0 without a track.
+  uint32_t instance_id = 0;
   std::vector<std::string> type_names;
   std::vector<double> type_probabilities;
   double measured_od = 0.0;
