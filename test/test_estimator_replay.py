@@ -27,7 +27,7 @@ import rosbag
 import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
-from drill_pipe_pose.msg import EstimatorStatus, PipeEnds, SensorFrame
+from drill_pipe_pose.msg import EstimatorStatus, PipeEndArray, PipeEnds, SensorFrame
 
 PKG = "drill_pipe_pose"
 SEED = 3
@@ -54,7 +54,9 @@ class EstimatorReplay(unittest.TestCase):
         cls.ends = []
         cls.diag = {}
         cls.status = []
+        cls.typed = []
         rospy.Subscriber("/drill_pipe_pose/pipe_ends", PipeEnds, lambda m: cls.ends.append(m))
+        rospy.Subscriber("/drill_pipe_pose/pipe_end_types", PipeEndArray, lambda m: cls.typed.append(m))
         rospy.Subscriber("/drill_pipe_pose/status", EstimatorStatus, lambda m: cls.status.append(m))
         rospy.Subscriber("/diagnostics", DiagnosticArray, cls.on_diag)
 
@@ -79,6 +81,7 @@ class EstimatorReplay(unittest.TestCase):
     def test_1_accuracy_through_the_node(self):
         rec = os.path.join(self.tmp, "estimates.bag")
         del self.status[:]
+        del self.typed[:]
         # Quarter speed: accuracy, not throughput (scripts/bench measures that); a CI machine
         # running the other tests beside the node must not drop cycles.
         self.play(self.bag, extra=("-r", "0.25"), record=rec)
@@ -100,6 +103,23 @@ class EstimatorReplay(unittest.TestCase):
         single = sum(list(s.instances) == [1, 1] for s in self.status)
         self.assertGreater(single, 0.9 * len(self.status),
                            f"instances per label: {sorted({tuple(s.instances) for s in self.status})}")
+        # pipe_end_types: every valid end with its id (one per end, kept), the 5" NC50 type of the
+        # scene on top, probabilities over every catalogue entry, a measured OD near 168.3 mm.
+        valid = [e for m in self.typed for e in m.ends if e.end.valid]
+        self.assertGreater(len(valid), 100, f"too few typed ends ({len(self.typed)} messages)")
+        ids = {e.end.label: set() for e in valid}
+        for e in valid:
+            ids[e.end.label].add(e.id)
+            self.assertEqual(len(e.candidates), len(e.probabilities))
+            self.assertAlmostEqual(sum(e.probabilities), 1.0, places=6)
+        self.assertEqual({k: len(v) for k, v in ids.items()}, {"box_end": 1, "pin_end": 1}, str(ids))
+        self.assertNotEqual(ids["box_end"], ids["pin_end"])
+        self.assertNotIn(0, ids["box_end"] | ids["pin_end"])
+        last = {e.end.label: e for e in valid}
+        for label, e in last.items():
+            self.assertEqual(e.type, "5in_NC50_6.625od", f"{label} (seed {SEED})")
+            self.assertGreater(e.od_measurements, 10)
+            self.assertLess(abs(e.measured_od - 0.168275), 0.005, f"{label}: {e.measured_od} (seed {SEED})")
 
     def test_2_camera_stops_mid_bag(self):
         cut = os.path.join(self.tmp, "cam3_stops.bag")
