@@ -63,13 +63,18 @@ TEST(PipeType, SameJointOdStaysAmbiguousUntilTheTubeIsSeen) {
   EXPECT_LT(p[0], 0.51);  // never a confident answer
   // A few tube measurements (fewer than min_measurements) do not count...
   const std::vector<double> q =
-      measured(0.1683 / 2, 200, 0.1270 / 2, c.min_measurements - 1).probabilities(kTypes, c);
+      measured(0.1683 / 2, 200, 0.1270 / 2, c.min_measurements - 1).probabilities(kTypes, c, 1);
   EXPECT_NEAR(q[0], q[1], 1e-9);
   // ...enough of them (the tubes are 12.7 mm apart) decide.
   const std::vector<double> t =
-      measured(0.1683 / 2, 200, 0.1270 / 2, c.min_measurements).probabilities(kTypes, c);
+      measured(0.1683 / 2, 200, 0.1270 / 2, c.min_measurements).probabilities(kTypes, c, 1);
   EXPECT_EQ(topType(t), 1);
-  EXPECT_GT(t[1], 0.99);
+  EXPECT_LT(t[0], 0.001);  // the tube decides between the two...
+  EXPECT_GT(t[1], 0.95);   // ...the 7" joint keeps what the joint alone leaves it (4.6 %)
+  // Measured against the 7" model (another joint size) the tube does not count.
+  const std::vector<double> o =
+      measured(0.1683 / 2, 200, 0.1270 / 2, c.min_measurements).probabilities(kTypes, c, 2);
+  EXPECT_NEAR(o[0], o[1], 1e-9);
 }
 
 TEST(PipeType, AWornJointKeepsItsNominalType) {

@@ -336,7 +336,7 @@ void report(const BenchOptions& o, const std::string& method, size_t n_cameras, 
   std::cout << "drift flags: " << flags << (flags ? ":" + flagged_cams : "") << "\n";
   std::cout << "drift largest |shift along the ray| [mm] / rotation [deg]:";
   for (const auto& [cam, mx] : t.drift_max)
-    std::cout << " " << cam << " " << std::setprecision(1) << mx.first * 1e3 << " / "
+    std::cout << " " << cam << " " << std::fixed << std::setprecision(1) << mx.first * 1e3 << " / "
               << std::setprecision(2) << mx.second;
   std::cout << "\n";
   std::cout << "DRIFT label=" << label << " method=" << method << " flags=" << flags

@@ -4,8 +4,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace drill_pipe_pose {
+
+namespace {
+/// [m] joints whose ODs differ by less than this are the same size (the catalogue's ODs differ
+/// by 3.2 mm or more where they differ).
+constexpr double kSameJointOd = 0.001;
+}  // namespace
 
 void RadiusMean::add(double radius, double std) {
   if (!std::isfinite(radius) || !std::isfinite(std)) return;
@@ -34,21 +41,37 @@ double RadiusMean::logLikelihood(double radius, double wear, double systematic) 
 }
 
 std::vector<double> TypeEvidence::probabilities(const std::vector<PipeCandidate>& candidates,
-                                                const TypingConfig& config) const {
+                                                const TypingConfig& config, int current) const {
   std::vector<double> p(candidates.size(), candidates.empty() ? 0.0 : 1.0 / candidates.size());
   if (joint.count() == 0 || candidates.empty()) return p;
-  const bool use_tube = tube.count() >= static_cast<size_t>(config.min_measurements);
   std::vector<double> logl(candidates.size());
-  for (size_t k = 0; k < candidates.size(); ++k) {
-    const ToolJointDimensions& d = candidates[k].dims;
-    logl[k] = joint.logLikelihood(d.tool_joint_od / 2, config.wear, config.systematic);
-    // A tube does not wear: no allowance.
-    if (use_tube) logl[k] += tube.logLikelihood(d.tube_od / 2, 0.0, config.systematic);
-  }
+  for (size_t k = 0; k < candidates.size(); ++k)
+    logl[k] = joint.logLikelihood(candidates[k].dims.tool_joint_od / 2, config.wear,
+                                  config.systematic);
   const double top = *std::max_element(logl.begin(), logl.end());
   double total = 0;
   for (size_t k = 0; k < p.size(); ++k) total += p[k] = std::exp(logl[k] - top);
   for (double& v : p) v /= total;
+  // The tube splits the probability of the types that share the current type's joint OD (it is
+  // measured against the current model's tube: against another size's it reads halfway, like
+  // the joint). A tube does not wear: no allowance.
+  if (current < 0 || current >= static_cast<int>(candidates.size()) ||
+      tube.count() < static_cast<size_t>(config.min_measurements))
+    return p;
+  const double od = candidates[current].dims.tool_joint_od;
+  std::vector<size_t> group;
+  double group_p = 0, best = -std::numeric_limits<double>::infinity();
+  std::vector<double> tl(candidates.size(), 0.0);
+  for (size_t k = 0; k < candidates.size(); ++k)
+    if (std::abs(candidates[k].dims.tool_joint_od - od) < kSameJointOd) {
+      group.push_back(k);
+      group_p += p[k];
+      tl[k] = tube.logLikelihood(candidates[k].dims.tube_od / 2, 0.0, config.systematic);
+      best = std::max(best, tl[k]);
+    }
+  double sum = 0;
+  for (size_t k : group) sum += std::exp(tl[k] - best);
+  for (size_t k : group) p[k] = group_p * std::exp(tl[k] - best) / sum;
   return p;
 }
 

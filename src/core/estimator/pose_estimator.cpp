@@ -333,7 +333,8 @@ void outputEnd(int slot, const Candidate* cd, const std::array<Candidate, kNumEn
 /// tool-joint radius measured with the pose eliminated (radiusOffset, absolute: the model's
 /// radius plus the offset) joins the end's evidence on its track, whose probabilities the end
 /// publishes; at a decision (not a tracked cycle) the end takes the top type when it is
-/// typing.switch_probability likely (its filter restarts: another model's origin). The evidence
+/// typing.switch_probability likely (its filter and its evidence restart: another model's
+/// origin, and measurements against the new model). The evidence
 /// restarts when the end has had no pose for tracking.max_gap, and with it the end's instance
 /// id (a new one from *next_id).
 void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
@@ -360,13 +361,22 @@ void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
     measure(models.joint_radius[slot], &et->evidence.joint);
     measure(models.tube_radius[slot], &et->evidence.tube);
   }
-  const std::vector<double> p = et->evidence.probabilities(cands, config.typing);
+  const std::vector<double> p = et->evidence.probabilities(cands, config.typing, et->type);
   const int top = topType(p);
+  // Another type is likely enough, or the end's own has become unlikely: measured against a
+  // model of another size, a joint reads about halfway between the two (a 120.6 mm joint read
+  // 142 mm against the 158.8 mm model: thesis_vertical, 3-1/2" NC38, seed 92), so the nearer
+  // type wins step by step.
+  const double sp = config.typing.switch_probability;
   if (cd && !cd->tracked && top >= 0 && top != et->type &&
-      p[top] >= config.typing.switch_probability &&
+      (p[top] >= sp || p[et->type] < 1.0 - sp) &&
       et->evidence.joint.count() >= static_cast<size_t>(config.typing.min_measurements)) {
     et->type = top;
     filter->reset();
+    // Measured against the old model: a joint 24 mm thinner in radius than the model reads
+    // about 12 mm thinner (thesis_vertical with 3-1/2" NC38 joints, seed 92), so the evidence
+    // restarts with the new model, and the next decisions may move on toward the right size.
+    et->evidence.reset();
   }
   e->type = cands[et->type].name;
   e->type_names.clear();

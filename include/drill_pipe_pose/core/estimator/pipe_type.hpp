@@ -8,7 +8,9 @@
 //   log L = -d^2 / (2 (s^2 / n + typing.systematic^2)),
 // s the measurements' spread, n their number: the part every measurement shares (the sensor's
 // depth bias, paint) does not average out, so the evidence never grows past typing.systematic.
-// The tube counts from typing.min_measurements measurements on (a glimpse of tube is not one).
+// The tube counts from typing.min_measurements measurements on (a glimpse of tube is not one),
+// and only among the types that share the current model's joint OD: measured against a model of
+// another size, a surface reads about halfway between the two.
 // Types whose joints the data cannot tell apart (4-1/2" NC50 and 5" NC50: both 6-5/8" OD) keep
 // equal probabilities: the top one is then ambiguous and published as such, never confidently.
 
@@ -65,9 +67,10 @@ class RadiusMean {
 struct TypeEvidence {
   RadiusMean joint, tube;
   void reset() { *this = TypeEvidence(); }
-  /// Probability of each candidate (same order), uniform without a measurement.
+  /// Probability of each candidate (same order), uniform without a measurement; `current`: the
+  /// index of the type whose model the measurements were made with (-1: the joint alone).
   std::vector<double> probabilities(const std::vector<PipeCandidate>& candidates,
-                                    const TypingConfig& config) const;
+                                    const TypingConfig& config, int current = -1) const;
 };
 
 /// The index of the largest probability (the first of equals); -1 when empty.
