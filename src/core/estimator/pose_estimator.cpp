@@ -51,8 +51,7 @@ std::vector<PipeCandidate> candidatesOf(const EstimatorConfig& config) {
   return {{config.pipe_type.empty() ? std::string("configured") : config.pipe_type, config.dims}};
 }
 
-/// The index of the candidate the models start from: pipe_type's, else the first whose geometry
-/// is config.dims, else 0.
+/// The index of the candidate the models start from: pipe_type's, else 0.
 int startType(const EstimatorConfig& config, const std::vector<PipeCandidate>& cands) {
   for (size_t k = 0; k < cands.size(); ++k)
     if (cands[k].name == config.pipe_type) return static_cast<int>(k);
@@ -328,15 +327,13 @@ void outputEnd(int slot, const Candidate* cd, const std::array<Candidate, kNumEn
                                           range_sum / used.size(), z_hi - z_lo, config.covariance);
 }
 
-
 /// Stage "pipe type" for end `slot` with its candidate `cd` (null: none this cycle): the
 /// tool-joint radius measured with the pose eliminated (radiusOffset, absolute: the model's
 /// radius plus the offset) joins the end's evidence on its track, whose probabilities the end
-/// publishes; at a decision (not a tracked cycle) the end takes the top type when it is
-/// typing.switch_probability likely (its filter and its evidence restart: another model's
-/// origin, and measurements against the new model). The evidence
-/// restarts when the end has had no pose for tracking.max_gap, and with it the end's instance
-/// id (a new one from *next_id).
+/// publishes; at a decision (not a tracked cycle) the end may take another type (see below; its
+/// filter and its evidence restart: another model's origin, measurements against the new
+/// model). The evidence restarts when the end has had no pose for tracking.max_gap, and with it
+/// the end's instance id (a new one from *next_id).
 void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
                  const std::vector<PipeCandidate>& cands, int64_t stamp_ns,
                  const EstimatorConfig& config, EndType* et, EndPoseFilter* filter,
