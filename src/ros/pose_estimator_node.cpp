@@ -11,6 +11,7 @@
 #include <ros/ros.h>
 
 #include <algorithm>
+#include <array>
 
 #include <sensor_msgs/PointCloud2.h>
 #include <sensor_msgs/point_cloud2_iterator.h>
@@ -267,6 +268,44 @@ class PoseEstimatorNode {
     return c;
   }
 
+  /// The end's axis (z: the direction a pose means for a pipe end) as an arrow from its origin,
+  /// and its instance id, type and the type's probability as a label at the arrow's tip; both
+  /// like the end's mesh marker `m` (frame, stamp, colour), deleted with it.
+  static std::array<visualization_msgs::Marker, 2> axisAndLabel(
+      const visualization_msgs::Marker& m, const EndEstimate& est) {
+    visualization_msgs::Marker arrow = m, label = m;
+    arrow.ns = m.ns + " axis";
+    arrow.type = visualization_msgs::Marker::ARROW;
+    arrow.mesh_resource.clear();
+    arrow.pose = geometry_msgs::Pose();
+    arrow.pose.orientation.w = 1.0;
+    arrow.scale.x = 0.02;  // shaft diameter [m]
+    arrow.scale.y = 0.04;  // head diameter
+    arrow.scale.z = 0.06;  // head length
+    label.ns = m.ns + " type";
+    label.type = visualization_msgs::Marker::TEXT_VIEW_FACING;
+    label.mesh_resource.clear();
+    label.scale.x = label.scale.y = label.scale.z = 0.07;
+    label.color.r = label.color.g = label.color.b = label.color.a = 1.0f;
+    if (!est.valid) return {arrow, label};
+    const Eigen::Vector3d o = est.T_world_end.translation();
+    const Eigen::Vector3d tip = o + 0.4 * est.T_world_end.linear().col(2);
+    geometry_msgs::Point a, b;
+    a.x = o.x(), a.y = o.y(), a.z = o.z();
+    b.x = tip.x(), b.y = tip.y(), b.z = tip.z();
+    arrow.points = {a, b};
+    double top = 0;
+    for (double p : est.type_probabilities) top = std::max(top, p);
+    char text[200];
+    std::snprintf(text, sizeof text, "%s #%u\n%s %.2f", m.ns.c_str(), est.instance_id,
+                  est.type.c_str(), top);
+    label.text = text;
+    label.pose = geometry_msgs::Pose();
+    label.pose.position = b;
+    label.pose.orientation.w = 1.0;
+    return {arrow, label};
+  }
+
   void publishDebug(const CycleResult& r, const ros::Time& stamp,
                     const std::vector<CameraInput>& inputs) {
     if (fused_pub_.getNumSubscribers() > 0)
@@ -296,42 +335,7 @@ class PoseEstimatorNode {
         m.action = visualization_msgs::Marker::DELETE;
       }
       ma.markers.push_back(m);
-      // Its axis (z: the direction a pose means for a pipe end) as an arrow, and its instance
-      // id, type and the type's probability as a label.
-      const EndEstimate& est = r.ends[e];
-      visualization_msgs::Marker arrow = m, label = m;
-      arrow.ns = m.ns + " axis";
-      arrow.type = visualization_msgs::Marker::ARROW;
-      arrow.mesh_resource.clear();
-      arrow.pose = geometry_msgs::Pose();
-      arrow.pose.orientation.w = 1.0;
-      arrow.scale.x = 0.02;  // shaft diameter [m]
-      arrow.scale.y = 0.04;  // head diameter
-      arrow.scale.z = 0.06;  // head length
-      label.ns = m.ns + " type";
-      label.type = visualization_msgs::Marker::TEXT_VIEW_FACING;
-      label.mesh_resource.clear();
-      label.scale.x = label.scale.y = label.scale.z = 0.07;
-      label.color.r = label.color.g = label.color.b = label.color.a = 1.0f;
-      if (est.valid) {
-        const Eigen::Vector3d o = est.T_world_end.translation();
-        const Eigen::Vector3d tip = o + 0.4 * est.T_world_end.linear().col(2);
-        geometry_msgs::Point a, b;
-        a.x = o.x(), a.y = o.y(), a.z = o.z();
-        b.x = tip.x(), b.y = tip.y(), b.z = tip.z();
-        arrow.points = {a, b};
-        double top = 0;
-        for (double p : est.type_probabilities) top = std::max(top, p);
-        char text[200];
-        std::snprintf(text, sizeof text, "%s #%u\n%s %.2f", m.ns.c_str(), est.instance_id,
-                      est.type.c_str(), top);
-        label.text = text;
-        label.pose.position = b;
-        label.pose.orientation = geometry_msgs::Quaternion();
-        label.pose.orientation.w = 1.0;
-      }
-      ma.markers.push_back(arrow);
-      ma.markers.push_back(label);
+      for (auto& extra : axisAndLabel(m, r.ends[e])) ma.markers.push_back(std::move(extra));
     }
     // Each camera's colour frustum (to frustum_range), in its optical frame.
     for (size_t i = 0; i < inputs.size(); ++i) {
