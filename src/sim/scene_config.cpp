@@ -380,8 +380,8 @@ SceneConfig parseRoot(const YAML::Node& root, const std::string& src) {
       fail(w, ": type: unknown pipe type \"", type, "\" (expected tool_joint or pipe)");
     }
     if (n["pipe_type"]) {
-      // A catalogue entry (the scene's pipe_catalog, else the package's beside config/scenes/),
-      // then the dimensions below as overrides (a worn or off-nominal joint).
+      // A pipe catalogue entry (sceneCatalogPath: the package's, beside config/scenes/), then
+      // the dimensions below as overrides (a worn or off-nominal joint).
       p.pipe_type = yamlGet<std::string>(n, "pipe_type", w);
       if (catalog.path.empty()) catalog = loadPipeCatalog(sceneCatalogPath(src));
       try {
