@@ -9,10 +9,6 @@
 #include <drill_pipe_pose/SensorFrame.h>
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <ros/ros.h>
-
-#include <algorithm>
-#include <array>
-
 #include <sensor_msgs/PointCloud2.h>
 #include <sensor_msgs/point_cloud2_iterator.h>
 #include <tf2_eigen/tf2_eigen.h>
@@ -21,8 +17,10 @@
 #include <tf2_ros/transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
 #include <visualization_msgs/MarkerArray.h>
-#include <cstdio>
 
+#include <algorithm>
+#include <array>
+#include <cstdio>
 #include <map>
 
 #include "drill_pipe_pose/core/cycle_runner.hpp"
