@@ -47,7 +47,7 @@
 #include "drill_pipe_pose/sim/depth_effects.hpp"
 #include "drill_pipe_pose/sim/random.hpp"
 #include "drill_pipe_pose/sim/sensor_model.hpp"
-#include "cli.hpp"
+#include "sim_cli.hpp"
 
 using namespace drill_pipe_pose;
 namespace fs = std::filesystem;
@@ -117,14 +117,8 @@ Options parseArgs(int argc, char** argv) {
                  "kinect_v2_uncalibrated")
       ->capture_default_str()
       ->check(tools::throwingCheck("PROFILE", [](const std::string& v) { sim::sensorProfile(v); }));
-  app.add_option("--off", o.off, "switch this sensor effect off (repeatable), e.g. axial_noise")
-      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
-      ->expected(1)
-      ->option_text("EFFECT ...")
-      ->check(tools::throwingCheck("EFFECT", [](const std::string& v) {
-        sim::SensorEffects fx;
-        sim::switchOffEffect(&fx, v);
-      }));
+  tools::addEffectOffOption(app, "--off", &o.off,
+                            "switch this sensor effect off (repeatable), e.g. axial_noise");
   app.add_option("--seed", o.seed, "random seed of the sensor noise")->capture_default_str();
   app.add_option("--repeat", o.repeat, "noise realisations per pose (> 1: <frame>_<k>.pgm)")
       ->capture_default_str()

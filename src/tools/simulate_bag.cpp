@@ -51,7 +51,7 @@
 #include "drill_pipe_pose/core/rig_calibration.hpp"
 #include "drill_pipe_pose/ros/conversions.hpp"
 #include "drill_pipe_pose/ros/sim_messages.hpp"
-#include "cli.hpp"
+#include "sim_cli.hpp"
 
 using namespace drill_pipe_pose;
 
@@ -201,15 +201,8 @@ void addModelOptions(CLI::App& app, sim::SimulatorOptions* opt, ModelArgs* m) {
   app.add_option("--pipe-type", opt->pipe_type,
                  "every pipe of the scene takes this pipe catalogue entry's geometry "
                  "(config/pipe_catalog.yaml, e.g. 5.5in_FH_7.0od)");
-  app.add_option("--effect-off", m->effects_off,
-                 "switch one of the profile's sensor effects off by name (repeatable)")
-      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
-      ->expected(1)
-      ->option_text("EFFECT ...")
-      ->check(tools::throwingCheck("EFFECT", [](const std::string& v) {
-        sim::SensorEffects fx;
-        sim::switchOffEffect(&fx, v);
-      }));
+  tools::addEffectOffOption(app, "--effect-off", &m->effects_off,
+                            "switch one of the profile's sensor effects off by name (repeatable)");
   app.add_option("--model", m->model,
                  "sensor model: fitted, before-fit (as before the fit to real frames) or additive "
                  "(the weak-return noise added to the range law)")

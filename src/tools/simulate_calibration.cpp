@@ -26,7 +26,7 @@
 #include "drill_pipe_pose/core/calibration/target.hpp"
 #include "drill_pipe_pose/core/errors.hpp"
 #include "drill_pipe_pose/sim/rig_simulator.hpp"
-#include "cli.hpp"
+#include "sim_cli.hpp"
 
 using namespace drill_pipe_pose;
 namespace cal = drill_pipe_pose::calibration;
@@ -113,16 +113,9 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::Range(1, 30));
   app.add_option("--sensors", opt.sensor_config_dir, "folder of the sensor intrinsics files");
-  app.add_option("--effect-off", effects_off,
-                 "switch one of the profile's sensor effects off by name (repeatable), to see "
-                 "what each costs the calibration")
-      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
-      ->expected(1)
-      ->option_text("EFFECT ...")
-      ->check(tools::throwingCheck("EFFECT", [](const std::string& v) {
-        sim::SensorEffects fx;
-        sim::switchOffEffect(&fx, v);
-      }));
+  tools::addEffectOffOption(app, "--effect-off", &effects_off,
+                            "switch one of the profile's sensor effects off by name (repeatable), "
+                            "to see what each costs the calibration");
   tools::parseOrExit(app, argc, argv);
   try {
     if (!effects_off.empty()) {
