@@ -222,6 +222,12 @@ PipeCatalog loadPipeCatalog(const std::string& path) {
   return parsePipeCatalog(ss.str(), path);
 }
 
+std::vector<std::pair<std::string, double ToolJointDimensions::*>> toolJointNumericFields() {
+  auto all = requiredFields();
+  all.insert(all.end(), optionalFields().begin(), optionalFields().end());
+  return all;
+}
+
 std::string pipeCatalogPath(const std::string& package_source_dir) {
   return package_source_dir + "/config/pipe_catalog.yaml";
 }

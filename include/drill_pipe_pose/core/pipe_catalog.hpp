@@ -23,6 +23,7 @@
 
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "drill_pipe_pose/core/tool_joint.hpp"
@@ -55,6 +56,10 @@ struct PipeCatalog {
 PipeCatalog loadPipeCatalog(const std::string& path);
 /// The same from YAML text; `where` names it in errors (and becomes PipeCatalog::path).
 PipeCatalog parsePipeCatalog(const std::string& yaml_text, const std::string& where);
+
+/// Every numeric ToolJointDimensions field with its key (the catalogue's and tool_joint/*'s
+/// names), the required ones first.
+std::vector<std::pair<std::string, double ToolJointDimensions::*>> toolJointNumericFields();
 
 /// The path of the package's catalogue (config/pipe_catalog.yaml), given the package source dir.
 std::string pipeCatalogPath(const std::string& package_source_dir);

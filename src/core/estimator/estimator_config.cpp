@@ -24,25 +24,8 @@ namespace {
 /// `base` with every field of `set` that differs from the defaults' (a tool_joint/* override).
 ToolJointDimensions withOverrides(ToolJointDimensions base, const ToolJointDimensions& set) {
   const ToolJointDimensions def;
-  const auto take = [](double* b, double s, double d) {
-    if (s != d) *b = s;
-  };
-  take(&base.tube_od, set.tube_od, def.tube_od);
-  take(&base.tube_id, set.tube_id, def.tube_id);
-  take(&base.tool_joint_od, set.tool_joint_od, def.tool_joint_od);
-  take(&base.tool_joint_id, set.tool_joint_id, def.tool_joint_id);
-  take(&base.elevator_taper_deg, set.elevator_taper_deg, def.elevator_taper_deg);
-  take(&base.pin_tong_length, set.pin_tong_length, def.pin_tong_length);
-  take(&base.box_tong_length, set.box_tong_length, def.box_tong_length);
-  take(&base.pin_length, set.pin_length, def.pin_length);
-  take(&base.pin_large_diameter, set.pin_large_diameter, def.pin_large_diameter);
-  take(&base.pin_taper, set.pin_taper, def.pin_taper);
-  take(&base.box_counterbore_diameter, set.box_counterbore_diameter,
-       def.box_counterbore_diameter);
-  take(&base.box_thread_depth, set.box_thread_depth, def.box_thread_depth);
-  take(&base.threads_per_inch, set.threads_per_inch, def.threads_per_inch);
-  take(&base.thread_height, set.thread_height, def.thread_height);
-  take(&base.tube_length, set.tube_length, def.tube_length);
+  for (const auto& [name, field] : toolJointNumericFields())
+    if (set.*field != def.*field) base.*field = set.*field;
   if (set.threads != def.threads) base.threads = set.threads;
   return base;
 }
