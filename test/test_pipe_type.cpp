@@ -102,3 +102,56 @@ TEST(PipeType, BadMeasurementsAreIgnored) {
   e.joint.add(0.08, std::numeric_limits<double>::infinity());
   EXPECT_EQ(e.joint.count(), 0u);
 }
+
+namespace {
+/// One joint per catalogue OD class: 4-3/4", 6-1/4", 6-3/8", 6-5/8" (twice: two tubes), 7".
+const std::vector<PipeCandidate> kSizes{
+    type("3.5_NC38", 0.12065, 0.0889), type("4.5_NC46", 0.15875, 0.1143),
+    type("4.5_NC50", 0.16193, 0.1143), type("5_NC50", 0.16828, 0.1270),
+    type("5_NC50_twin", 0.16828, 0.1270), type("5.5_FH", 0.1778, 0.1397)};
+
+TypeTrial trial(int type, double offset, bool ok = true) {
+  TypeTrial t;
+  t.type = type;
+  t.ok = ok;
+  t.offset = offset;
+  return t;
+}
+}  // namespace
+
+TEST(PipeTypeTrial, NoTrialWhileTheJointReadsItsOwnRadius) {
+  EXPECT_EQ(trialTypes(kSizes, 3, 0.16828 / 2, TypingConfig()), std::vector<int>{3});
+  // 1 mm thin: the window reaches 4.5 mm of radius down, to the 6-3/8" joint (3.2 mm).
+  EXPECT_EQ(trialTypes(kSizes, 3, 0.16828 / 2 - 0.001, TypingConfig()),
+            (std::vector<int>{3, 2}));
+}
+
+TEST(PipeTypeTrial, ATinyJointTriesEverySmallerOdOnce) {
+  // A 4-3/4" joint reads halfway to the 6-5/8" model: 144.5 mm.
+  const std::vector<int> t = trialTypes(kSizes, 3, 0.1445 / 2, TypingConfig());
+  EXPECT_EQ(t, (std::vector<int>{3, 0, 1, 2})) << "each smaller OD once, none larger, no twin";
+  // The other side: a 7" joint read at 173 mm.
+  EXPECT_EQ(trialTypes(kSizes, 3, 0.173 / 2, TypingConfig()), (std::vector<int>{3, 5}));
+  EXPECT_TRUE(trialTypes(kSizes, -1, 0.08, TypingConfig()).empty());
+}
+
+TEST(PipeTypeTrial, TheTypeThatExplainsItsRadiusWins) {
+  const TypingConfig c;
+  // Against its own model the 4-3/4" joint reads +0.3 mm; against the others it reads thinner.
+  EXPECT_EQ(chooseTrial({trial(3, -11.0e-3), trial(0, 0.3e-3), trial(1, -9.0e-3)}, c), 0);
+  // A joint 1.5 mm (radius) worn reads -0.75 mm against its own model: it keeps it, though
+  // the next smaller size reads +0.8 mm.
+  EXPECT_EQ(chooseTrial({trial(3, -0.75e-3), trial(2, 0.8e-3)}, c), 3);
+  // Within trial_margin the current type stays.
+  EXPECT_EQ(chooseTrial({trial(3, 0.4e-3), trial(2, 0.3e-3)}, c), 3);
+  // A failed trial does not count; none ok: -1.
+  EXPECT_EQ(chooseTrial({trial(3, 5e-3), trial(0, 0.0, false)}, c), 3);
+  EXPECT_EQ(chooseTrial({trial(3, 0.0, false), trial(0, 1e-3)}, c), 0);
+  EXPECT_EQ(chooseTrial({trial(3, 0.0, false)}, c), -1);
+  EXPECT_EQ(chooseTrial({}, c), -1);
+  // The configured type wins typing.prior_margin back: a worn joint read 1.9 mm thin against it
+  // and 0.2 mm thick against the next smaller size keeps the configured type, not another.
+  EXPECT_EQ(chooseTrial({trial(3, -1.9e-3), trial(2, 0.2e-3)}, c, 3), 3);
+  EXPECT_EQ(chooseTrial({trial(3, -1.9e-3), trial(2, 0.2e-3)}, c), 2);
+  EXPECT_EQ(chooseTrial({trial(2, 0.2e-3), trial(3, -1.9e-3)}, c, 3), 3) << "also back to it";
+}

@@ -33,6 +33,7 @@ struct Candidate {
   ProfileFitResult fit;                   ///< fit of the model that won (fit.label)
   std::string reason;                     ///< why not ok
   std::vector<Eigen::Vector3f> pts;       ///< [m, world] the instance's points (subsampled)
+  std::vector<float> sigmas;              ///< [m] noise sigma of each point
   std::vector<uint16_t> cams;             ///< camera index of each point
   std::vector<Eigen::Vector3f> eyes;      ///< [m, world] position of the camera of each point
   double direction_margin = 0.0;  ///< score of the flipped axis direction minus the winner's

@@ -38,7 +38,7 @@ InstanceFitter::InstanceFitter(const CycleContext& ctx, int label,
                               config_.profile_fit.max_points);
   for (size_t i = 0; i < points.size(); i += stride) {
     cd_.pts.push_back(points[i].p_world);
-    sig_.push_back(points[i].sigma);
+    cd_.sigmas.push_back(points[i].sigma);
     cd_.cams.push_back(points[i].camera);
     cd_.eyes.push_back(ctx.cams[points[i].camera].T_world_depth.translation().cast<float>());
   }
@@ -49,7 +49,7 @@ InstanceFitter::InstanceFitter(const CycleContext& ctx, int label,
   for (size_t i = 0; i < cd_.pts.size(); i += coarse_stride_) {
     coarse_pts_.push_back(cd_.pts[i]);
     coarse_eyes_.push_back(cd_.eyes[i]);
-    coarse_sig_.push_back(sig_[i]);
+    coarse_sig_.push_back(cd_.sigmas[i]);
   }
   // Points of the decision scans (deterministic subsample), scaled to the full count.
   const size_t st = std::max<size_t>(1, cd_.pts.size() / config_.profile_fit.search_points);
@@ -262,7 +262,7 @@ bool InstanceFitter::refineWinner(int win) {
       for (size_t i : rp.idx) {
         rp.own_pts.push_back(cd_.pts[i]);
         rp.own_eyes.push_back(cd_.eyes[i]);
-        rp.own_sig.push_back(sig_[i]);
+        rp.own_sig.push_back(cd_.sigmas[i]);
       }
       for (size_t i = 0; i < coarse_pts_.size(); ++i)
         if (clear(coarse_pts_[i])) {
@@ -273,7 +273,7 @@ bool InstanceFitter::refineWinner(int win) {
     }
     rp.pts = rp.subset ? &rp.own_pts : &cd_.pts;
     rp.eyes = rp.subset ? &rp.own_eyes : &cd_.eyes;
-    rp.sig = rp.subset ? &rp.own_sig : &sig_;
+    rp.sig = rp.subset ? &rp.own_sig : &cd_.sigmas;
     rp.coarse_pts = rp.subset ? &rp.own_coarse_pts : &coarse_pts_;
     rp.coarse_eyes = rp.subset ? &rp.own_coarse_eyes : &coarse_eyes_;
     rp.coarse_sig = rp.subset ? &rp.own_coarse_sig : &coarse_sig_;

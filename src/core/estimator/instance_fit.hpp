@@ -61,7 +61,6 @@ class InstanceFitter {
   const EstimatorConfig& config_;
   const int label_;
   Candidate cd_;
-  std::vector<float> sig_;  ///< [m] noise sigma of each point of cd_.pts
   /// The coarse subsample (every coarse_stride_-th of cd_.pts).
   size_t coarse_stride_ = 1;
   Points coarse_pts_, coarse_eyes_;

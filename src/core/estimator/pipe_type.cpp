@@ -75,6 +75,49 @@ std::vector<double> TypeEvidence::probabilities(const std::vector<PipeCandidate>
   return p;
 }
 
+std::vector<int> trialTypes(const std::vector<PipeCandidate>& candidates, int current,
+                            double mean, const TypingConfig& config) {
+  std::vector<int> out;
+  if (current < 0 || current >= static_cast<int>(candidates.size())) return out;
+  out.push_back(current);
+  const double r_cur = candidates[current].dims.tool_joint_od / 2;
+  const double dev = mean - r_cur;
+  // The window: from the current radius to three deviations away, widened by the error no
+  // averaging removes (a reading that barely moves still tries the nearest sizes).
+  const double lo = std::min(r_cur, r_cur + 3 * dev) - config.systematic;
+  const double hi = std::max(r_cur, r_cur + 3 * dev) + config.systematic;
+  std::vector<double> taken{candidates[current].dims.tool_joint_od};
+  for (size_t k = 0; k < candidates.size(); ++k) {
+    const double od = candidates[k].dims.tool_joint_od;
+    if (od / 2 < lo || od / 2 > hi) continue;
+    if ((od / 2 - r_cur) * dev < 0) continue;  // on the other side of the reading
+    bool seen = false;
+    for (double t : taken) seen = seen || std::abs(t - od) < kSameJointOd;
+    if (seen) continue;
+    taken.push_back(od);
+    out.push_back(static_cast<int>(k));
+  }
+  return out;
+}
+
+int chooseTrial(const std::vector<TypeTrial>& trials, const TypingConfig& config, int preferred) {
+  const auto score = [&](const TypeTrial& t) {
+    const double d = t.offset < 0 ? std::min(0.0, t.offset + config.wear) : t.offset;
+    return std::abs(d) + 0.25 * std::abs(t.offset) - (t.type == preferred ? config.prior_margin : 0.0);
+  };
+  if (trials.empty()) return -1;
+  int best = -1;
+  double best_score = std::numeric_limits<double>::infinity();
+  for (const TypeTrial& t : trials)
+    if (t.ok && score(t) < best_score) {
+      best_score = score(t);
+      best = t.type;
+    }
+  const TypeTrial& cur = trials.front();
+  if (cur.ok && best != cur.type && score(cur) - best_score < config.trial_margin) return cur.type;
+  return best;
+}
+
 int topType(const std::vector<double>& probabilities) {
   if (probabilities.empty()) return -1;
   return static_cast<int>(std::max_element(probabilities.begin(), probabilities.end()) -

@@ -24,13 +24,17 @@
 #include "drill_pipe_pose/core/pipe_end_frame.hpp"
 #include "end_models.hpp"
 #include "label_fit.hpp"
+#include "type_trial.hpp"
 
 namespace drill_pipe_pose {
 
 /// One published end's pipe type across cycles (pipe_type.hpp).
 struct EndType {
   int type = 0;            ///< index into the candidates: the model the end is fitted with
-  TypeEvidence evidence;   ///< the measurements on the end's track
+  TypeEvidence evidence;   ///< the measurements on the end's track (against its type's model)
+  /// Per candidate: its type trials' radius offsets on the track (each against the candidate's
+  /// own model, so they hold across type changes).
+  std::vector<RadiusMean> trials;
   int64_t last_valid_ns = 0;  ///< capture stamp of the end's last valid cycle
   uint32_t id = 0;            ///< the end's instance id (0: no track)
 };
@@ -60,7 +64,8 @@ int startType(const EstimatorConfig& config, const std::vector<PipeCandidate>& c
 
 struct PoseEstimator::Impl {
   explicit Impl(const EstimatorConfig& config)
-      : candidates(candidatesOf(config)), start(startType(config, candidates)) {
+      : candidates(candidatesOf(config)), start(startType(config, candidates)),
+        type_models(candidates) {
     for (auto& t : state.types) t.type = start;
   }
   /// The models of the ends' current types (built once per pair of types).
@@ -76,6 +81,7 @@ struct PoseEstimator::Impl {
   }
   const std::vector<PipeCandidate> candidates;
   const int start;  ///< the type every end starts from
+  TypeModelCache type_models;  ///< every candidate type's models, for the type trials
   std::map<std::pair<int, int>, std::unique_ptr<EndModels>> model_sets;
   EstimatorState state;
 };
@@ -327,21 +333,58 @@ void outputEnd(int slot, const Candidate* cd, const std::array<Candidate, kNumEn
                                           range_sum / used.size(), z_hi - z_lo, config.covariance);
 }
 
+/// The type end `slot` takes at a decision. Another joint OD is decided by trials: measured
+/// against a model of another size, a joint reads about halfway between the two (a 120.6 mm
+/// joint read 142 mm against the 158.8 mm model: thesis_vertical, 3-1/2" NC38, seed 92), so
+/// the types on the reading's side are refitted and measured each against its own model
+/// (trialTypes, chooseTrial). Among the types that share the current joint OD, the tube's
+/// evidence decides: the top type takes over when it is typing.switch_probability likely, or
+/// the current one has become unlikely.
+int nextType(int slot, const Candidate& cd, const std::vector<PipeCandidate>& cands,
+             const std::vector<double>& p, int start, EndType* et_out,
+             const EstimatorConfig& config, TypeModelCache* type_models) {
+  EndType& et = *et_out;
+  const std::vector<int> types =
+      trialTypes(cands, et.type, et.evidence.joint.mean(), config.typing);
+  if (types.size() > 1) {
+    // Each trial joins its type's trials on the track; the choice is made on their means (one
+    // trial's offset scatters by about 1 mm: 3-1/2" NC38 on seed 92).
+    et.trials.resize(cands.size());
+    std::vector<TypeTrial> trials = runTypeTrials(slot, cd, types, config, type_models);
+    for (TypeTrial& t : trials) {
+      if (t.ok) et.trials[t.type].add(t.offset, 0.0);
+      t.ok = et.trials[t.type].count() > 0;
+      t.offset = et.trials[t.type].mean();
+    }
+    const int chosen = chooseTrial(trials, config.typing, start);
+    if (chosen >= 0 && chosen != et.type) return chosen;
+  }
+  const int top = topType(p);
+  const double sp = config.typing.switch_probability;
+  if (top >= 0 && top != et.type &&
+      et.evidence.joint.count() >= static_cast<size_t>(config.typing.min_measurements) &&
+      std::abs(cands[top].dims.tool_joint_od - cands[et.type].dims.tool_joint_od) < 1e-3 &&
+      (p[top] >= sp || p[et.type] < 1.0 - sp))
+    return top;
+  return et.type;
+}
+
 /// Stage "pipe type" for end `slot` with its candidate `cd` (null: none this cycle): the
 /// tool-joint radius measured with the pose eliminated (radiusOffset, absolute: the model's
 /// radius plus the offset) joins the end's evidence on its track, whose probabilities the end
-/// publishes; at a decision (not a tracked cycle) the end may take another type (see below; its
-/// filter and its evidence restart: another model's origin, measurements against the new
-/// model). The evidence restarts when the end has had no pose for tracking.max_gap, and with it
-/// the end's instance id (a new one from *next_id).
+/// publishes. At a decision (not a tracked cycle) the end may take another type (nextType);
+/// its filter and its evidence then restart (another model's origin, measurements against the
+/// new model). The evidence restarts when the end has had no pose for tracking.max_gap, and
+/// with it the end's instance id (a new one from *next_id).
 void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
-                 const std::vector<PipeCandidate>& cands, int64_t stamp_ns,
-                 const EstimatorConfig& config, EndType* et, EndPoseFilter* filter,
-                 uint32_t* next_id, EndEstimate* e) {
+                 const std::vector<PipeCandidate>& cands, int start, int64_t stamp_ns,
+                 const EstimatorConfig& config, TypeModelCache* type_models, EndType* et,
+                 EndPoseFilter* filter, uint32_t* next_id, EndEstimate* e) {
   if (!e->valid) {
     if (et->last_valid_ns > 0 &&
         static_cast<double>(stamp_ns - et->last_valid_ns) * 1e-9 > config.tracking.max_gap) {
       et->evidence.reset();
+      et->trials.clear();
       et->id = 0;
     }
     return;
@@ -358,22 +401,15 @@ void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
     measure(models.joint_radius[slot], &et->evidence.joint);
     measure(models.tube_radius[slot], &et->evidence.tube);
   }
-  const std::vector<double> p = et->evidence.probabilities(cands, config.typing, et->type);
-  const int top = topType(p);
-  // Another type is likely enough, or the end's own has become unlikely: measured against a
-  // model of another size, a joint reads about halfway between the two (a 120.6 mm joint read
-  // 142 mm against the 158.8 mm model: thesis_vertical, 3-1/2" NC38, seed 92), so the nearer
-  // type wins step by step.
-  const double sp = config.typing.switch_probability;
-  if (cd && !cd->tracked && top >= 0 && top != et->type &&
-      (p[top] >= sp || p[et->type] < 1.0 - sp) &&
-      et->evidence.joint.count() >= static_cast<size_t>(config.typing.min_measurements)) {
-    et->type = top;
-    filter->reset();
-    // Measured against the old model: a joint 24 mm thinner in radius than the model reads
-    // about 12 mm thinner (thesis_vertical with 3-1/2" NC38 joints, seed 92), so the evidence
-    // restarts with the new model, and the next decisions may move on toward the right size.
-    et->evidence.reset();
+  std::vector<double> p = et->evidence.probabilities(cands, config.typing, et->type);
+  if (config.typing.enabled && cd && !cd->tracked && et->evidence.joint.count() > 0) {
+    const int next = nextType(slot, *cd, cands, p, start, et, config, type_models);
+    if (next != et->type) {
+      et->type = next;
+      filter->reset();
+      et->evidence.reset();
+      p = et->evidence.probabilities(cands, config.typing, et->type);
+    }
   }
   e->type = cands[et->type].name;
   e->type_names.clear();
@@ -384,6 +420,24 @@ void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
   e->type_measurements = et->evidence.joint.count();
   e->measured_tube_od = 2 * et->evidence.tube.mean();
   e->tube_measurements = et->evidence.tube.count();
+}
+
+/// A box end and a pin end are made up only within one connection type: an end without a
+/// measurement of its own takes the other end's type once that end has changed type on its
+/// evidence (a 3-1/2" NC38 box end is rejected by the 5" NC50 model in most cycles, and would
+/// never measure its way to its size: thesis_vertical, seed 92).
+void shareConnectionType(std::array<EndType, kNumEnds>* types,
+                         std::array<EndPoseFilter, kNumEnds>* filters, const TypingConfig& tc) {
+  if (!tc.enabled) return;
+  for (int slot = 0; slot < kNumEnds; ++slot) {
+    EndType& et = (*types)[slot];
+    const EndType& other = (*types)[1 - slot];
+    if (et.evidence.joint.count() > 0 || !et.trials.empty() || other.type == et.type ||
+        (other.evidence.joint.count() == 0 && other.trials.empty()))
+      continue;
+    et.type = other.type;
+    (*filters)[slot].reset();
+  }
 }
 
 }  // namespace
@@ -404,7 +458,10 @@ void PoseEstimator::reset() {
   if (s.baseline) s.baseline->reset();
   for (auto& f : s.filters) f.reset();
   for (auto& l : s.labels) l = LabelState();
-  for (auto& t : s.types) t = EndType{impl_->start, {}, 0, 0};  // ids go on: never reused
+  for (auto& t : s.types) {  // ids go on: never reused
+    t = EndType();
+    t.type = impl_->start;
+  }
   s.drift.reset();
 }
 
@@ -476,9 +533,11 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
   for (int slot = 0; slot < kNumEnds; ++slot) {
     const Candidate* cd = owner[slot] < 0 ? nullptr : &cand[owner[slot]];
     outputEnd(slot, cd, cand, cams, stamp_ns, &state.filters[slot], config_, &result);
-    classifyEnd(slot, cd, models, impl_->candidates, stamp_ns, config_, &state.types[slot],
-                &state.filters[slot], &state.next_id, &result.ends[slot]);
+    classifyEnd(slot, cd, models, impl_->candidates, impl_->start, stamp_ns, config_,
+                &impl_->type_models,
+                &state.types[slot], &state.filters[slot], &state.next_id, &result.ends[slot]);
   }
+  shareConnectionType(&state.types, &state.filters, config_.typing);
   if (config_.drift.enabled)
     watchDrift(cams, left_out, raw, cand, owner, models, stamp_ns, config_, &state.drift,
                &result);

@@ -11,6 +11,9 @@
 // The tube counts from typing.min_measurements measurements on (a glimpse of tube is not one),
 // and only among the types that share the current model's joint OD: measured against a model of
 // another size, a surface reads about halfway between the two.
+// The mean measured against the current model decides among the types of its joint OD; another
+// OD is decided by type trials (trialTypes, chooseTrial): the end refitted with each nearby
+// type's model and measured against it.
 // Types whose joints the data cannot tell apart (4-1/2" NC50 and 5" NC50: both 6-5/8" OD) keep
 // equal probabilities: the top one is then ambiguous and published as such, never confidently.
 
@@ -43,7 +46,41 @@ struct TypingConfig {
   double switch_probability = 0.9;
   /// ...and the mean holds at least this many measurements.
   int min_measurements = 5;
+  /// A type trial (TypeTrial) replaces the end's type only when the other type's joint explains
+  /// the points better by this much [m] of radius (chosen on the thesis_vertical seed-92 bags
+  /// of every catalogue size, see chooseTrial; one trial's offset scatters by about 0.5 mm).
+  double trial_margin = 0.00025;
+  /// [m] the configured type (tool_joint/type, the string the rig runs) needs a trial this much
+  /// worse than another's to be left, and wins this much back: a 5" NC50 joint worn 3 mm reads
+  /// up to 1.9 mm thin on its pin end, about as near the 6-3/8" joint's radius 3.2 mm below
+  /// (thesis_vertical_worn, seeds 94 and 95).
+  double prior_margin = 0.001;
 };
+
+/// One type tried at a decision: the end refitted with the type's model from its current pose,
+/// and its joint's radius measured against that model (radiusOffset).
+struct TypeTrial {
+  int type = -1;      ///< index into the candidates
+  bool ok = false;    ///< the refit converged and the radius was measured
+  double offset = 0;  ///< [m] measured minus the type's joint radius (a thinner joint: negative)
+};
+
+/// The types worth a trial for an end fitted with type `current` whose joint reads `mean` [m]
+/// (the evidence's mean radius, measured against the current model): the current type first,
+/// then one per other joint OD (the first such candidate) on the reading's side of the current
+/// radius and within three times its deviation (measured against a model of another size, a
+/// joint reads about halfway between the two).
+std::vector<int> trialTypes(const std::vector<PipeCandidate>& candidates, int current,
+                            double mean, const TypingConfig& config);
+
+/// The trial whose joint fits its own model best: the smallest offset beyond the wear allowance
+/// (a joint up to typing.wear thinner than its model counts as a fit), plus a quarter of the
+/// whole offset (of two types that both pass for worn, the one nearer the reading), less
+/// typing.prior_margin for the `preferred` type (the configured one). The current type (the
+/// first trial) stays unless another beats it by typing.trial_margin. Returns a candidate
+/// index, or -1 when no trial is ok.
+int chooseTrial(const std::vector<TypeTrial>& trials, const TypingConfig& config,
+                int preferred = -1);
 
 /// Measurements of one radius on an end's track.
 class RadiusMean {
