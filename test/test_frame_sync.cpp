@@ -95,6 +95,22 @@ TEST(FrameSync, DeadCameraNeverStallsAndRejoins) {
   EXPECT_GT(without, 80u);
 }
 
+TEST(FrameSync, CamerasDeadFromTheStartHoldNoCycle) {
+  // cam5 and cam6 never send a frame: after the first cycle (which waits max_wait for them),
+  // every cycle closes complete as soon as the four live cameras contributed, not by timeout.
+  const unsigned seed = 11;
+  FrameSyncConfig cfg;
+  cfg.camera_timeout = 1.0;
+  FrameSynchronizer sync(kCams, cfg);
+  const std::vector<std::string> four(kCams.begin(), kCams.begin() + 4);
+  const auto cycles = run(sync, schedule(four, 100.0, 102.0, seed));
+  ASSERT_GT(cycles.size(), 50u) << "seed " << seed;
+  size_t waited = 0;
+  for (size_t i = 1; i < cycles.size(); ++i) waited += !cycles[i].complete;
+  EXPECT_LE(waited, 1u) << "cycles closed by max_wait after the first (seed " << seed << ")";
+  EXPECT_EQ(sync.liveCameras(), four) << "seed " << seed;
+}
+
 TEST(FrameSync, OneCameraWorks) {
   FrameSynchronizer sync({"cam1"}, FrameSyncConfig());
   const auto cycles = run(sync, schedule({"cam1"}, 0.0, 2.0, 1));
@@ -110,8 +126,10 @@ TEST(FrameSync, LateFramesAreCountedNotUsed) {
   EXPECT_TRUE(sync.poll(1.001).empty());  // waits for b
   auto cycles = sync.poll(1.03);          // max_wait passed: closes with a alone
   ASSERT_EQ(cycles.size(), 1u);
-  EXPECT_FALSE(cycles[0].complete);
   EXPECT_EQ(cycles[0].frames.size(), 1u);
+  // b, never heard, left the fusion at max_wait: the cycle holds every live camera.
+  EXPECT_TRUE(cycles[0].complete);
+  EXPECT_EQ(sync.liveCameras(), std::vector<std::string>{"a"});
   EXPECT_FALSE(sync.add("b", 999000000, 1.04, 2));  // older than the closed cycle
   EXPECT_EQ(sync.stats().at("b").dropped_stale, 1u);
   EXPECT_EQ(sync.takeDropped(), std::vector<uint64_t>{2});

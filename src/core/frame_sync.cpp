@@ -35,8 +35,10 @@ bool FrameSynchronizer::add(const std::string& camera, int64_t stamp_ns, double 
   auto it = buffers_.find(camera);
   if (it == buffers_.end()) return false;
   if (!started_) {
-    // Every configured camera is expected from the first frame on: one that never speaks leaves
-    // the fusion after camera_timeout, like one that stops.
+    // Every configured camera is expected from the first frame on, so that the first cycle
+    // waits for all of them; one that has never sent a frame leaves the fusion once max_wait
+    // has passed (updateLiveness): a camera dead from the start must not hold the cycles of
+    // its first camera_timeout (two of six silent cameras held 29 cycles for 50 ms each).
     started_ = true;
     for (auto& [cam, st] : stats_) {
       st.live = true;
@@ -66,9 +68,10 @@ bool FrameSynchronizer::add(const std::string& camera, int64_t stamp_ns, double 
 }
 
 void FrameSynchronizer::updateLiveness(double now) {
-  for (auto& [cam, st] : stats_)
-    if (st.live && now - st.last_arrival > config_.camera_timeout && buffers_[cam].empty())
-      st.live = false;
+  for (auto& [cam, st] : stats_) {
+    const double timeout = st.received == 0 ? config_.max_wait : config_.camera_timeout;
+    if (st.live && now - st.last_arrival > timeout && buffers_[cam].empty()) st.live = false;
+  }
 }
 
 std::vector<FrameSynchronizer::Cycle> FrameSynchronizer::poll(double now) {

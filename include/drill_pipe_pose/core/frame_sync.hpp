@@ -9,7 +9,8 @@
 // frame in the window (or has already sent a newer one), or when `max_wait` has passed (arrival
 // clock) since its first frame arrived. It is stamped with the latest capture stamp it used.
 // A camera silent for longer than `camera_timeout` (arrival clock) leaves the fusion and rejoins
-// with its next frame.
+// with its next frame; one that has never sent a frame leaves it once `max_wait` has passed
+// since the first frame (a camera dead from the start holds no cycle after the first).
 
 #include <cstdint>
 #include <deque>

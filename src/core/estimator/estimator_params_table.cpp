@@ -333,7 +333,7 @@ ParamTable<EstimatorNodeConfig> makeNodeTable() {
       P("sync/max_wait", sync.max_wait, "s", atLeast(0),
         "how long a cycle waits for a late camera"),
       P("sync/camera_timeout", sync.camera_timeout, "s", atLeast(1e-3),
-        "silence after which a camera leaves the fusion (it rejoins with its next frame)"),
+        "silence after which a camera leaves the fusion (it rejoins with its next frame; one never heard leaves after sync/max_wait)"),
       P("sync/buffer_size", sync.buffer_size, "frames", atLeast(1), "frames kept per camera"),
       P("debug/frustum_length", debug_frustum_length, "m", positive(),
         "drawn length of each camera's colour frustum in debug/models"),
