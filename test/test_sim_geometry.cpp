@@ -5,6 +5,7 @@
 
 #include "drill_pipe_pose/core/tool_joint.hpp"
 #include "drill_pipe_pose/sim/geometry.hpp"
+#include "drill_pipe_pose/sim/rig_simulator.hpp"
 #include "drill_pipe_pose/sim/scene.hpp"
 
 using namespace drill_pipe_pose;
@@ -180,4 +181,38 @@ TEST(SimGeometry, TrajectoryLinearSwingAndSequence) {
   EXPECT_EQ(seq.pose(2.5).translation().x(), 1);
   EXPECT_EQ(seq.pose(7.0).translation().x(), 0);  // cycles
   EXPECT_FALSE(seq.isStatic());
+}
+
+TEST(SimPipeType, ALyingPipeStaysOnItsSupport) {
+  // catwalk_horizontal with the 3-1/2" NC38 joints: the pipe's axis moves down by the change of
+  // the tool-joint radius (the joint still rests on the catwalk); the standing thesis joints do
+  // not move.
+  const std::string dir = DRILL_PIPE_POSE_SOURCE_DIR;
+  sim::SimulatorOptions opt;
+  opt.sensor_config_dir = dir + "/config/sensors";
+  const auto lowest = [&](const std::string& scene, const std::string& type) {
+    opt.pipe_type = type;
+    const auto sim = sim::loadScenario(dir + "/config/rigs/thesis_lab.yaml",
+                                       dir + "/config/scenes/" + scene + ".yaml", opt);
+    const sim::Scene& s = sim->scene();
+    const sim::SceneSnapshot snap = s.snapshot(0.0);
+    std::vector<double> z;
+    for (const sim::SceneEnd& e : s.ends)
+      z.push_back(snap.T_world_object[e.object].translation().z() - e.rendered.tool_joint_od / 2);
+    return z;
+  };
+  const std::vector<double> nominal = lowest("catwalk_horizontal", "");
+  const std::vector<double> small = lowest("catwalk_horizontal", "3.5in_NC38_4.75od");
+  ASSERT_EQ(nominal.size(), small.size());
+  ASSERT_FALSE(nominal.empty());
+  for (size_t k = 0; k < nominal.size(); ++k)
+    EXPECT_NEAR(small[k], nominal[k], 1e-6) << "end " << k << ": the joint's underside moved";
+  EXPECT_LT(small[0] + 0.12065 / 2, nominal[0] + ToolJointDimensions().tool_joint_od / 2 - 0.02)
+      << "the axis came down by the radius difference (24 mm)";
+  const std::vector<double> standing = lowest("thesis_vertical", "3.5in_NC38_4.75od");
+  const std::vector<double> standing_nominal = lowest("thesis_vertical", "");
+  for (size_t k = 0; k < standing.size(); ++k)
+    EXPECT_NEAR(standing[k] + 0.12065 / 2,
+                standing_nominal[k] + ToolJointDimensions().tool_joint_od / 2, 1e-6)
+        << "end " << k << ": a standing joint moved";
 }

@@ -567,7 +567,18 @@ std::unique_ptr<RigSimulator> loadScenario(const std::string& rig_path,
   if (!opt.pipe_type.empty()) {
     const PipeCatalog catalog = loadPipeCatalog(sceneCatalogPath(scene_path));
     for (PipeConfig& p : scene.pipes) {
-      p.dims = catalog.at(opt.pipe_type).dims;
+      const ToolJointDimensions& dims = catalog.at(opt.pipe_type).dims;
+      // A pipe lying on a support (the catwalk) keeps lying on it: its axis moves up or down by
+      // the change of the tool-joint radius, times how level the axis is (a standing joint,
+      // set in the floor, keeps its pose).
+      const auto rest = [&](Eigen::Isometry3d* T) {
+        const double level = std::sqrt(std::max(0.0, 1.0 - std::pow(T->linear()(2, 2), 2)));
+        T->translation().z() += (dims.tool_joint_od - p.dims.tool_joint_od) / 2 * level;
+      };
+      rest(&p.motion.T_world_anchor);
+      for (Eigen::Isometry3d& T : p.motion.pose_sequence) rest(&T);
+      for (Eigen::Isometry3d& T : p.motion.key_poses) rest(&T);
+      p.dims = dims;
       p.pipe_type = opt.pipe_type;
     }
   }

@@ -200,7 +200,8 @@ void addModelOptions(CLI::App& app, sim::SimulatorOptions* opt, ModelArgs* m) {
       ->check(tools::throwingCheck("BUMP", [](const std::string& v) { sim::parseCameraBump(v); }));
   app.add_option("--pipe-type", opt->pipe_type,
                  "every pipe of the scene takes this pipe catalogue entry's geometry "
-                 "(config/pipe_catalog.yaml, e.g. 5.5in_FH_7.0od)");
+                 "(config/pipe_catalog.yaml, e.g. 5.5in_FH_7.0od); a lying pipe stays on its "
+                 "support (its axis moves with the tool-joint radius)");
   tools::addEffectOffOption(app, "--effect-off", &m->effects_off,
                             "switch one of the profile's sensor effects off by name (repeatable)");
   app.add_option("--model", m->model,
