@@ -106,3 +106,30 @@ TEST(ConversionsBadInput, BigEndianAndUnknownLabelAndBadBox) {
   f.boxes[0].x_max = f.boxes[0].x_min - 1.0f;
   expectRejected(f, {"cam2 boxes[0]", "min <= max"});
 }
+
+TEST(ConversionsBadInput, SizesBeyondTheLimitsAreRejectedFirst) {
+  // A depth image declared 20000 x 20000 with no data, a colour CameraInfo of 10^9 pixels and
+  // 1000 boxes: each names the camera, the field and the limit, before any other check.
+  SensorFrame f = sampleSensorFrame("cam3", 1);
+  f.depth.width = 20000;
+  f.depth.height = 20000;
+  f.depth.data.clear();
+  expectRejected(f, {"cam3 depth", "20000 x 20000", "limits/max_image_pixels = 16777216"});
+  f = sampleSensorFrame("cam3", 1);
+  f.color_info.width = 100000;
+  f.color_info.height = 10000;
+  expectRejected(f, {"cam3 color_info", "limits/max_image_pixels"});
+  f = sampleSensorFrame("cam3", 1);
+  f.boxes.resize(1000, f.boxes[0]);
+  expectRejected(f, {"cam3 boxes", "1000 boxes", "limits/max_boxes = 64"});
+  // Within a limit set by the node, the same frame passes; beyond a tighter one it does not.
+  InputLimits tight;
+  tight.max_boxes = 1;
+  f = sampleSensorFrame("cam3", 1);
+  ASSERT_GE(f.boxes.size(), 2u);
+  EXPECT_NO_THROW(fromMsg(share(f)));
+  EXPECT_THROW(fromMsg(share(f), tight), InputError);
+  tight = InputLimits();
+  tight.max_image_pixels = static_cast<uint64_t>(f.depth.width) * f.depth.height - 1;
+  EXPECT_THROW(fromMsg(share(f), tight), InputError);
+}

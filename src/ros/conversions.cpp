@@ -125,10 +125,13 @@ PipeBox toMsg(const DetectionBox& b) {
   return m;
 }
 
-SensorFrameData fromMsg(const SensorFrameConstPtr& msg) {
+SensorFrameData fromMsg(const SensorFrameConstPtr& msg, const InputLimits& limits) {
   if (msg->camera.empty())
     fail("SensorFrame (frame_id \"", msg->header.frame_id, "\"): field camera is empty");
   const std::string& cam = msg->camera;
+  checkFrameLimits(cam, msg->depth.width, msg->depth.height, msg->color_info.width,
+                   msg->color_info.height, msg->depth_info.width, msg->depth_info.height,
+                   msg->boxes.size(), limits);
   SensorFrameData f;
   f.camera = cam;
   f.stamp_ns = toNs(msg->header.stamp);

@@ -103,7 +103,8 @@ class PoseEstimatorNode {
 
   void onFrame(const std::string& cam, const SensorFrameConstPtr& msg) {
     const int64_t stamp = toNs(msg->header.stamp);
-    const AddResult r = runner_.add(cam, stamp, wallNow(), [msg] { return fromMsg(msg); });
+    const AddResult r = runner_.add(cam, stamp, wallNow(),
+                                     [msg, this] { return fromMsg(msg, cfg_.limits); });
     if (r.time_jumped_back)
       ROS_WARN(
           "pose_estimator: %s frame stamped %.3f s is %.1f s older than the last cycle: "

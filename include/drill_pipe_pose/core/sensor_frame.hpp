@@ -30,4 +30,21 @@ struct SensorFrameData {
   std::vector<DetectionBox> boxes;
 };
 
+/// Size limits of one SensorFrame. A message can be arbitrarily large on the wire; a frame beyond
+/// a limit is rejected before anything is allocated for it (checkFrameLimits).
+struct InputLimits {
+  /// Depth image width x height, and each CameraInfo's (Kinect v2: 512 x 424 depth, 1920 x 1080
+  /// colour; the default leaves room for 4K colour).
+  uint64_t max_image_pixels = 4096ull * 4096ull;
+  /// Boxes per frame (a detector boxes a handful of ends; 1000 boxes is a broken detector).
+  uint64_t max_boxes = 64;
+};
+
+/// Throws InputError naming `camera`, the field and the limit when a declared size exceeds
+/// `limits`: the depth image (width x height), a CameraInfo (`info_name`: width x height), the box
+/// count.
+void checkFrameLimits(const std::string& camera, uint64_t depth_width, uint64_t depth_height,
+                      uint64_t color_width, uint64_t color_height, uint64_t depth_info_width,
+                      uint64_t depth_info_height, uint64_t boxes, const InputLimits& limits);
+
 }  // namespace drill_pipe_pose

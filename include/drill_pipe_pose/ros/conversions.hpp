@@ -34,10 +34,11 @@ sensor_msgs::Image toMsg(const DepthImage& image, int64_t stamp_ns, const std::s
 DetectionBox fromMsg(const PipeBox& msg, const std::string& source);
 PipeBox toMsg(const DetectionBox& box);
 
-/// Converts and validates a SensorFrame: camera name present, both CameraInfos usable, depth
-/// encoding supported, depth image consistent with its CameraInfo (size, roi, step), labels known.
-/// Throws InputError naming the camera and the field. The depth pixels are shared, not copied.
-SensorFrameData fromMsg(const SensorFrameConstPtr& msg);
+/// Converts and validates a SensorFrame: camera name present, sizes within `limits` (checked
+/// first, before anything is allocated), both CameraInfos usable, depth encoding supported, depth
+/// image consistent with its CameraInfo (size, roi, step), labels known. Throws InputError
+/// naming the camera and the field. The depth pixels are shared, not copied.
+SensorFrameData fromMsg(const SensorFrameConstPtr& msg, const InputLimits& limits = InputLimits());
 SensorFrame toMsg(const SensorFrameData& frame);
 
 /// A transform message parent <- child (T_parent_child) stamped `stamp`.

@@ -335,6 +335,10 @@ ParamTable<EstimatorNodeConfig> makeNodeTable() {
       P("sync/camera_timeout", sync.camera_timeout, "s", atLeast(1e-3),
         "silence after which a camera leaves the fusion (it rejoins with its next frame; one never heard leaves after sync/max_wait)"),
       P("sync/buffer_size", sync.buffer_size, "frames", atLeast(1), "frames kept per camera"),
+      P("limits/max_image_pixels", limits.max_image_pixels, "pixels", atLeast(1),
+        "a SensorFrame whose depth image or CameraInfo declares more pixels is dropped"),
+      P("limits/max_boxes", limits.max_boxes, "boxes", atLeast(0),
+        "a SensorFrame with more boxes is dropped (a broken detector)"),
       P("debug/frustum_length", debug_frustum_length, "m", positive(),
         "drawn length of each camera's colour frustum in debug/models"),
   };

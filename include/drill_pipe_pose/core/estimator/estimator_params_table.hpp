@@ -17,6 +17,7 @@
 #include "drill_pipe_pose/core/estimator/estimator_config.hpp"
 #include "drill_pipe_pose/core/frame_sync.hpp"
 #include "drill_pipe_pose/core/param_table.hpp"
+#include "drill_pipe_pose/core/sensor_frame.hpp"
 
 namespace drill_pipe_pose {
 
@@ -33,6 +34,7 @@ struct EstimatorNodeConfig {
   /// correct each camera's depth; empty: no correction.
   std::string rig;
   FrameSyncConfig sync;
+  InputLimits limits;  ///< per-frame size limits (a frame beyond one is dropped)
   EstimatorConfig estimator;
 };
 
