@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
+#include <iterator>
+#include <limits>
 #include <numeric>
 #include <ostream>
 
@@ -175,6 +177,73 @@ void printEvaluation(const std::array<EndEvaluation, kNumEnds>& evals, std::ostr
           << " estimates while moving (negative: behind)\n";
   }
   out.unsetf(std::ios::fixed);
+}
+
+InstanceEvaluation evaluateInstances(const TrueEnds& truth, const std::vector<ReportedEnd>& reports,
+                                     double match_distance, double near_distance) {
+  InstanceEvaluation ev;
+  // The true ends at a stamp: the latest capture at or before it, per label.
+  const auto trueAt = [&](int l, int64_t stamp) -> const std::vector<Eigen::Vector3d>* {
+    auto it = truth[l].upper_bound(stamp);
+    if (it == truth[l].begin()) return nullptr;
+    return &std::prev(it)->second;
+  };
+  std::map<int64_t, std::vector<const ReportedEnd*>> by_cycle;
+  for (const ReportedEnd& r : reports) by_cycle[r.stamp_ns].push_back(&r);
+  // Per (label, true end): the id it had in the last cycle, and that cycle's index.
+  std::map<std::pair<int, size_t>, std::pair<uint32_t, size_t>> last;
+  size_t cycle = 0;
+  for (const auto& [stamp, reps] : by_cycle) {
+    ++cycle;
+    ++ev.cycles;
+    size_t n_true = 0;
+    for (int l = 0; l < kNumEnds; ++l) {
+      const std::vector<Eigen::Vector3d>* t = trueAt(l, stamp);
+      if (!t) continue;
+      n_true += t->size();
+      for (size_t j = 0; j < t->size(); ++j) {
+        ++ev.end_cycles;
+        const ReportedEnd* best = nullptr;
+        double best_d = match_distance;
+        for (const ReportedEnd* r : reps)
+          if (static_cast<int>(r->label) == l && (r->origin - (*t)[j]).norm() <= best_d)
+            best_d = (r->origin - (*t)[j]).norm(), best = r;
+        if (!best) continue;
+        ++ev.reported;
+        ev.id_truth[best->id].insert({l, j});
+        auto it = last.find({l, j});
+        if (it != last.end() && it->second.second + 1 == cycle) {
+          ++ev.id_pairs;
+          if (it->second.first == best->id) ++ev.id_kept;
+        }
+        last[{l, j}] = {best->id, cycle};
+      }
+    }
+    ev.true_ends = std::max(ev.true_ends, n_true);
+    for (const ReportedEnd* r : reps) {
+      double own = std::numeric_limits<double>::infinity();
+      if (const std::vector<Eigen::Vector3d>* t = trueAt(static_cast<int>(r->label), stamp))
+        for (const Eigen::Vector3d& p : *t) own = std::min(own, (r->origin - p).norm());
+      if (own > match_distance) ++ev.stray;
+      // Within near_distance of a true end that is not the one it stands for (its label's
+      // nearest).
+      for (int l = 0; l < kNumEnds; ++l) {
+        const std::vector<Eigen::Vector3d>* t = trueAt(l, stamp);
+        if (!t) continue;
+        for (size_t j = 0; j < t->size(); ++j) {
+          const double d = (r->origin - (*t)[j]).norm();
+          const bool its_own = l == static_cast<int>(r->label) && d == own;
+          if (!its_own && d < near_distance) {
+            ++ev.near_other;
+            l = kNumEnds;
+            break;
+          }
+        }
+      }
+    }
+  }
+  for (const auto& [id, ends] : ev.id_truth) ev.mixed_ids += ends.size() > 1 ? 1 : 0;
+  return ev;
 }
 
 }  // namespace drill_pipe_pose

@@ -178,21 +178,22 @@ class PoseEstimatorNode {
       end.valid = pub.valid;
       end.age = ros::Duration(pub.age);
       end.message = pub.message;
-      if (pub.valid) {
-        end.pose.pose = tf2::toMsg(pub.estimate.T_world_end);
-        for (int i = 0; i < 36; ++i)
-          end.pose.covariance[i] = pub.estimate.covariance(i / 6, i % 6);
-        end.residual = pub.estimate.residual;
-        end.points = static_cast<uint32_t>(pub.estimate.points);
-        end.cameras = pub.estimate.cameras;
-      }
+      if (pub.valid) fillPipeEnd(pub.estimate, &end);
       if (!end.message.empty()) message += std::string(end.label) + ": " + end.message + ". ";
       status.ends.push_back(end.label);
       status.points.push_back(est.points);
       status.residual.push_back(est.residual);
       status.instances.push_back(r.instances[e]);
-      typed.ends.push_back(typedEnd(end, pub));
+      typed.ends.push_back(typedEnd(end, pub.valid ? &pub.estimate : nullptr));
       ends.ends.push_back(end);
+    }
+    // Every other end in the work zone (several pipes at once): pipe_end_types only.
+    for (const EndEstimate& est : r.others) {
+      PipeEnd end;
+      end.label = labelName(est.label);
+      end.valid = true;
+      fillPipeEnd(est, &end);
+      typed.ends.push_back(typedEnd(end, &est));
     }
     if (out.pin_in_box) {
       ends.pin_in_box.valid = true;
@@ -213,12 +214,21 @@ class PoseEstimatorNode {
     publishDebug(r, stamp, out.inputs);
   }
 
-  /// The end with its instance id and pipe type (of the estimate it publishes).
-  TypedPipeEnd typedEnd(const PipeEnd& end, const PublishedEnd& pub) const {
+  /// The estimate's pose, covariance, residual, points and cameras into `end`.
+  static void fillPipeEnd(const EndEstimate& e, PipeEnd* end) {
+    end->pose.pose = tf2::toMsg(e.T_world_end);
+    for (int i = 0; i < 36; ++i) end->pose.covariance[i] = e.covariance(i / 6, i % 6);
+    end->residual = e.residual;
+    end->points = static_cast<uint32_t>(e.points);
+    end->cameras = e.cameras;
+  }
+
+  /// The end with its instance id and pipe type (of the estimate it publishes; null: none).
+  TypedPipeEnd typedEnd(const PipeEnd& end, const EndEstimate* est) const {
     TypedPipeEnd t;
     t.end = end;
-    if (!pub.valid) return t;
-    const EndEstimate& e = pub.estimate;
+    if (!est) return t;
+    const EndEstimate& e = *est;
     t.id = e.instance_id;
     t.type = e.type;
     t.candidates = e.type_names;
@@ -335,6 +345,26 @@ class PoseEstimatorNode {
       }
       ma.markers.push_back(m);
       for (auto& extra : axisAndLabel(m, r.ends[e])) ma.markers.push_back(std::move(extra));
+    }
+    // The other ends, each under its instance id; they fade out a few cycles after their last
+    // fit (lifetime) instead of being deleted.
+    for (const EndEstimate& est : r.others) {
+      visualization_msgs::Marker m;
+      m.header.stamp = stamp;
+      m.header.frame_id = cfg_.world_frame;
+      m.ns = std::string(labelName(est.label)) + " other";
+      m.id = static_cast<int>(est.instance_id);
+      m.type = visualization_msgs::Marker::MESH_RESOURCE;
+      m.mesh_resource =
+          std::string("package://drill_pipe_pose/models/") + labelName(est.label) + ".stl";
+      m.scale.x = m.scale.y = m.scale.z = 1.0;
+      m.color.a = 0.5f;
+      m.color.r = m.color.g = m.color.b = 0.7f;
+      m.action = visualization_msgs::Marker::ADD;
+      m.pose = tf2::toMsg(est.T_world_end);
+      m.lifetime = ros::Duration(0.3);
+      ma.markers.push_back(m);
+      for (auto& extra : axisAndLabel(m, est)) ma.markers.push_back(std::move(extra));
     }
     // Each camera's colour frustum (to frustum_range), in its optical frame.
     for (size_t i = 0; i < inputs.size(); ++i) {

@@ -165,6 +165,7 @@ BenchOptions parseArgs(int argc, char** argv) {
 struct BagContents {
   TfTransforms tf;
   std::array<GroundTruthTrack, kNumEnds> truth;
+  TrueEnds true_ends;  ///< every true end per stamp (several of one label: several pipes)
   std::set<std::string> cameras;
 };
 
@@ -183,6 +184,7 @@ void readBagContents(rosbag::Bag& bag, const std::string& skip_camera, BagConten
             Eigen::Isometry3d T;
             tf2::fromMsg(p->pose, T);
             out->truth[static_cast<int>(e)].add(toNs(p->header.stamp), T);
+            out->true_ends[static_cast<int>(e)][toNs(p->header.stamp)].push_back(T.translation());
           }
     }
   }
@@ -226,6 +228,7 @@ struct Tally {
   std::vector<double> times_ms;
   std::array<std::vector<double>, 4> stage_ms;  // cut-out, fusion, segmentation, registration
   std::vector<EstimateSample> estimates;
+  std::vector<ReportedEnd> reported;  ///< every fresh end of every cycle, primary or other
   std::map<std::string, size_t> reasons;
   std::ofstream cycles_csv;
   /// Drift watch: per camera, times it was flagged (a clear one turning flagged) and cycles it
@@ -282,6 +285,11 @@ void tally(const CycleOutput& out, double ms, Tally* t) {
       ty.measurements = est.type_measurements;
     }
   }
+  for (const EndEstimate& e : out.result.ends)
+    if (e.valid)
+      t->reported.push_back({out.cycle.stamp_ns, e.label, e.instance_id, e.T_world_end.translation()});
+  for (const EndEstimate& e : out.result.others)
+    t->reported.push_back({out.cycle.stamp_ns, e.label, e.instance_id, e.T_world_end.translation()});
   std::string cams;
   for (const auto& c : out.result.cameras_used) cams += (cams.empty() ? "" : "+") + c;
   for (int e = 0; e < kNumEnds; ++e) {
@@ -305,6 +313,23 @@ void tally(const CycleOutput& out, double ms, Tally* t) {
     }
   }
   ++t->cycles;
+}
+
+/// Every end at once (several pipes): the true ends reported, the ids kept, and the reports
+/// off their end (evaluateInstances); an INSTANCES line for scripts.
+void reportInstances(const BenchOptions& o, const InstanceEvaluation& ev) {
+  const auto share = [](size_t a, size_t b) { return b ? static_cast<double>(a) / b : 0.0; };
+  std::cout << std::setprecision(4) << "every end: " << ev.true_ends << " true ends, reported in "
+            << 100 * share(ev.reported, ev.end_cycles) << " % of end-cycles; id kept in "
+            << 100 * share(ev.id_kept, ev.id_pairs) << " % of consecutive pairs; "
+            << ev.mixed_ids << " ids on more than one end; " << ev.stray
+            << " reports off every end of their label; " << ev.near_other
+            << " within 0.2 m of another end\n";
+  std::cout << "INSTANCES label=" << (o.label.empty() ? o.bag_path : o.label)
+            << " true_ends=" << ev.true_ends << " reported=" << share(ev.reported, ev.end_cycles)
+            << " id_kept=" << share(ev.id_kept, ev.id_pairs) << " id_pairs=" << ev.id_pairs
+            << " mixed_ids=" << ev.mixed_ids << " stray=" << ev.stray
+            << " near_other=" << ev.near_other << "\n";
 }
 
 void report(const BenchOptions& o, const std::string& method, size_t n_cameras, const Tally& t,
@@ -440,6 +465,7 @@ int main(int argc, char** argv) {
     eo.expected_cycles = std::max<size_t>(t.cycles, std::llround(span_ns * 1e-9 * 30.0));
     const auto evals = evaluate(bc.truth, t.estimates, eo);
     report(opt, estimatorMethodName(cfg.estimator.method), bc.cameras.size(), t, evals);
+    reportInstances(opt, evaluateInstances(bc.true_ends, t.reported));
     if (!opt.csv_path.empty()) {
       std::ofstream f(opt.csv_path);
       if (!f) fail("cannot write '", opt.csv_path, "'");

@@ -6,6 +6,8 @@
 #include <array>
 #include <cstdint>
 #include <iosfwd>
+#include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -84,5 +86,35 @@ void writeErrorCsv(const std::array<EndEvaluation, kNumEnds>& evals, std::ostrea
 /// Prints the thesis-style table (mean and sigma of x, y, z, rotation about x and y) and the
 /// symmetry-aware errors with success rates, per end.
 void printEvaluation(const std::array<EndEvaluation, kNumEnds>& evals, std::ostream& out);
+
+/// One end a cycle reported (several pipes at once: the primary pair and every other end).
+struct ReportedEnd {
+  int64_t stamp_ns = 0;  ///< the cycle's stamp
+  EndLabel label = EndLabel::kBoxEnd;
+  uint32_t id = 0;  ///< instance id
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();  ///< [m] world
+};
+
+/// The true ends at each capture stamp, per label, in the simulator's (stable) order.
+using TrueEnds = std::array<std::map<int64_t, std::vector<Eigen::Vector3d>>, kNumEnds>;
+
+/// Reported ends against every true end (evaluateInstances).
+struct InstanceEvaluation {
+  size_t cycles = 0;        ///< cycles with a report or a truth
+  size_t true_ends = 0;     ///< true ends per cycle (the most seen)
+  size_t end_cycles = 0;    ///< (cycle, true end) pairs
+  size_t reported = 0;      ///< ...with a report of its label within match_distance
+  size_t id_pairs = 0;      ///< consecutive cycles in which one true end was reported
+  size_t id_kept = 0;       ///< ...under the same id
+  size_t mixed_ids = 0;     ///< ids reported on more than one true end
+  size_t stray = 0;         ///< reports with no true end of their label within match_distance
+  size_t near_other = 0;    ///< reports within near_distance of another end's true position
+  std::map<uint32_t, std::set<std::pair<int, size_t>>> id_truth;  ///< id -> (label, true end)
+};
+
+/// Every report matched to the nearest true end of its label at the cycle's stamp (the latest
+/// truth at or before it) within match_distance [m]; see InstanceEvaluation.
+InstanceEvaluation evaluateInstances(const TrueEnds& truth, const std::vector<ReportedEnd>& reports,
+                                     double match_distance = 0.1, double near_distance = 0.2);
 
 }  // namespace drill_pipe_pose

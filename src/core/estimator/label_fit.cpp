@@ -35,18 +35,20 @@ std::vector<std::vector<size_t>> instanceClusters(const CycleContext& ctx, int l
 /// within instances.track_gate; -1 when none.
 int trackedCluster(const CycleContext& ctx, const Track& tr,
                    const std::vector<std::vector<size_t>>& clusters,
-                   const std::vector<CloudPoint>& carved) {
+                   const std::vector<CloudPoint>& carved, const std::vector<bool>* taken = nullptr) {
   const EstimatorConfig& config = ctx.config;
   if (!tr.continues(ctx.stamp_ns, config.tracking.max_gap)) return -1;
   const Eigen::Vector3f pred =
       tr.predict(ctx.stamp_ns, config.tracking.max_prediction).cast<float>();
   size_t best_k = 0;
   float best_d2 = std::numeric_limits<float>::infinity();
-  for (size_t k = 0; k < clusters.size(); ++k)
+  for (size_t k = 0; k < clusters.size(); ++k) {
+    if (taken && (*taken)[k]) continue;
     for (size_t i : clusters[k]) {
       const float d2 = (carved[i].p_world - pred).squaredNorm();
       if (d2 < best_d2) best_d2 = d2, best_k = k;
     }
+  }
   const double gate = config.instances.track_gate;
   return best_d2 <= gate * gate ? static_cast<int>(best_k) : -1;
 }
@@ -54,9 +56,10 @@ int trackedCluster(const CycleContext& ctx, const Track& tr,
 /// The label's candidate among the instances decided this cycle (`inst`; [0] is the track's
 /// when `tracked_first`): instances that fit this label's model compete, the other model's only
 /// when none does (the label is then corrected).
-Candidate chooseCandidate(const CycleContext& ctx, int l, std::vector<Candidate> inst,
+Candidate chooseCandidate(const CycleContext& ctx, int l, std::vector<Candidate>& inst,
                           bool tracked_first, const std::vector<CloudPoint>& raw,
-                          std::vector<InstanceMemory>* memory) {
+                          std::vector<InstanceMemory>* memory, int* chosen) {
+  *chosen = -1;
   const EstimatorConfig& config = ctx.config;
   const EndLabel detected = static_cast<EndLabel>(l);
   bool any_native = false;
@@ -80,13 +83,17 @@ Candidate chooseCandidate(const CycleContext& ctx, int l, std::vector<Candidate>
         return near;
       },
       config.axis_fit.min_points, config.instances, labelName(detected));
-  if (choice.index >= 0) return std::move(inst[static_cast<size_t>(choice.index)]);
+  if (choice.index >= 0) {
+    *chosen = choice.index;
+    return std::move(inst[static_cast<size_t>(choice.index)]);
+  }
   Candidate cd;
   if (!choice.reason.empty()) {
     cd.detected = detected;
     cd.reason = choice.reason;
     return cd;
   }
+  *chosen = 0;
   cd = std::move(inst[0]);
   if (inst.size() > 1)
     cd.reason = "no instance fits (" + std::to_string(inst.size()) + "); the first: " + cd.reason;
@@ -97,7 +104,7 @@ Candidate chooseCandidate(const CycleContext& ctx, int l, std::vector<Candidate>
 
 Candidate fitLabel(const CycleContext& ctx, int l, const std::vector<CloudPoint>& raw,
                    const std::vector<CloudPoint>& carved, LabelState* state, LabelTiming* timing,
-                   uint32_t* instances) {
+                   uint32_t* instances, std::vector<OtherFit>* others) {
   const EstimatorConfig& config = ctx.config;
   Candidate cd;
   cd.detected = static_cast<EndLabel>(l);
@@ -134,8 +141,19 @@ Candidate fitLabel(const CycleContext& ctx, int l, const std::vector<CloudPoint>
     return cd;
   }
   const int track_k = trackedCluster(ctx, state->track, clusters, carved);
+  // The label's other ends: each continuing track follows the nearest cluster not yet taken.
+  std::vector<bool> taken(clusters.size(), false);
+  if (track_k >= 0) taken[static_cast<size_t>(track_k)] = true;
+  for (size_t s = 0; s < state->others.size(); ++s) {
+    const int k = trackedCluster(ctx, state->others[s].track, clusters, carved, &taken);
+    if (k < 0) continue;
+    taken[static_cast<size_t>(k)] = true;
+    others->push_back({static_cast<int>(s), InstanceFitter(ctx, l, pointsOf(static_cast<size_t>(k)))
+                                                .fit(state->others[s].track, true, timing)});
+  }
   // The instances decided this cycle: the track's (when its fit is not simply tracked: a
-  // periodic decision, or the track was lost) and the largest others.
+  // periodic decision, or the track was lost) and the largest others (those the other ends
+  // follow too: the label's choice is the same with other ends in view or not).
   std::vector<Candidate> inst;
   if (track_k >= 0) {
     Candidate c = InstanceFitter(ctx, l, pointsOf(static_cast<size_t>(track_k)))
@@ -148,7 +166,14 @@ Candidate fitLabel(const CycleContext& ctx, int l, const std::vector<CloudPoint>
     if (static_cast<int>(k) == track_k) continue;
     inst.push_back(InstanceFitter(ctx, l, pointsOf(k)).fit(state->track, false, timing));
   }
-  return chooseCandidate(ctx, l, std::move(inst), track_k >= 0, raw, &state->memory);
+  int chosen = -1;
+  cd = chooseCandidate(ctx, l, inst, track_k >= 0, raw, &state->memory, &chosen);
+  // The decision's other valid fits of this label's model start ends of their own (where an
+  // other end already follows one, outputOthers drops it as a duplicate).
+  for (size_t k = 0; k < inst.size(); ++k)
+    if (static_cast<int>(k) != chosen && inst[k].ok && static_cast<int>(inst[k].fit.label) == l)
+      others->push_back({-1, std::move(inst[k])});
+  return cd;
 }
 
 }  // namespace drill_pipe_pose

@@ -37,6 +37,7 @@ struct EndType {
   std::vector<RadiusMean> trials;
   int64_t last_valid_ns = 0;  ///< capture stamp of the end's last valid cycle
   uint32_t id = 0;            ///< the end's instance id (0: no track)
+  Eigen::Vector3d last_origin = Eigen::Vector3d::Zero();  ///< [m] of its last valid fit
 };
 
 /// Everything that lives across cycles, in one place (reset() clears it).
@@ -292,10 +293,55 @@ bool filterEnd(EndPoseFilter* filter, int64_t stamp_ns, const EstimatorConfig::T
   return true;
 }
 
+/// What the rig calibration's share of an end's covariance depends on (calibrationCovariance).
+struct EndSupport {
+  std::set<uint16_t> cameras;  ///< cameras with inlier points
+  double range_sum = 0;        ///< [m] their summed distance to the end
+  double extent = 0;           ///< [m] the inliers' extent along the axis
+  void addTo(EndEstimate* e, const EstimatorConfig& config) const {
+    if (!cameras.empty())
+      e->covariance += calibrationCovariance(e->T_world_end.linear().col(2), cameras.size(),
+                                             range_sum / cameras.size(), extent,
+                                             config.covariance);
+  }
+};
+
+/// The pose of candidate `cd` into `e` (valid) with its fit's covariance, inlier points and
+/// cameras; the inliers into `segmented` when given.
+EndSupport fillEnd(int slot, const Candidate& cd, const std::vector<CycleCamera>& cams,
+                   const EstimatorConfig& config, EndEstimate* e,
+                   std::vector<Eigen::Vector3f>* segmented) {
+  e->label = static_cast<EndLabel>(slot);
+  e->valid = true;
+  e->reason.clear();
+  e->label_corrected = static_cast<int>(cd.detected) != slot;
+  e->tracked = cd.tracked;
+  e->T_world_end = canonicalPose(cd.fit.origin, cd.fit.z);
+  e->covariance = worldCovariance(cd.fit, config.covariance);
+  e->residual = cd.fit.rms;
+  e->points = cd.fit.inliers;
+  EndSupport sup;
+  double z_lo = std::numeric_limits<double>::infinity(), z_hi = -z_lo;
+  for (size_t i = 0; i < cd.pts.size(); ++i)
+    if (cd.fit.inlier_mask[i]) {
+      sup.cameras.insert(cd.cams[i]);
+      if (segmented) segmented->push_back(cd.pts[i]);
+      const double zi = (cd.pts[i].cast<double>() - cd.fit.origin).dot(cd.fit.z);
+      z_lo = std::min(z_lo, zi);
+      z_hi = std::max(z_hi, zi);
+    }
+  for (uint16_t c : sup.cameras) {
+    e->cameras.push_back(cams[c].name);
+    sup.range_sum += (cams[c].T_world_depth.translation() - cd.fit.origin).norm();
+  }
+  sup.extent = z_hi - z_lo;
+  return sup;
+}
+
 /// Stage "output" for end `slot`: the pose of its candidate `cd` (null: none, explained from
-/// `cand`) with its covariance, inlier points and cameras; the temporal filter (filter, when
-/// temporal.enabled); then the rig calibration's share of the covariance, which no filter
-/// reduces.
+/// `cand`) with its covariance, inlier points and cameras (fillEnd); the temporal filter
+/// (filter, when temporal.enabled); then the rig calibration's share of the covariance, which
+/// no filter reduces.
 void outputEnd(int slot, const Candidate* cd, const std::array<Candidate, kNumEnds>& cand,
                const std::vector<CycleCamera>& cams, int64_t stamp_ns, EndPoseFilter* filter,
                const EstimatorConfig& config, CycleResult* result) {
@@ -304,33 +350,9 @@ void outputEnd(int slot, const Candidate* cd, const std::array<Candidate, kNumEn
     e.reason = noPoseReason(slot, cand);
     return;
   }
-  e.valid = true;
-  e.reason.clear();
-  e.label_corrected = static_cast<int>(cd->detected) != slot;
-  e.tracked = cd->tracked;
-  e.T_world_end = canonicalPose(cd->fit.origin, cd->fit.z);
-  e.covariance = worldCovariance(cd->fit, config.covariance);
-  e.residual = cd->fit.rms;
-  e.points = cd->fit.inliers;
-  std::set<uint16_t> used;
-  double z_lo = std::numeric_limits<double>::infinity(), z_hi = -z_lo;
-  for (size_t i = 0; i < cd->pts.size(); ++i)
-    if (cd->fit.inlier_mask[i]) {
-      used.insert(cd->cams[i]);
-      result->segmented[slot].push_back(cd->pts[i]);
-      const double zi = (cd->pts[i].cast<double>() - cd->fit.origin).dot(cd->fit.z);
-      z_lo = std::min(z_lo, zi);
-      z_hi = std::max(z_hi, zi);
-    }
-  double range_sum = 0;
-  for (uint16_t c : used) {
-    e.cameras.push_back(cams[c].name);
-    range_sum += (cams[c].T_world_depth.translation() - cd->fit.origin).norm();
-  }
+  const EndSupport sup = fillEnd(slot, *cd, cams, config, &e, &result->segmented[slot]);
   if (config.temporal.enabled && !filterEnd(filter, stamp_ns, config.temporal, &e)) return;
-  if (!used.empty())
-    e.covariance += calibrationCovariance(e.T_world_end.linear().col(2), used.size(),
-                                          range_sum / used.size(), z_hi - z_lo, config.covariance);
+  sup.addTo(&e, config);
 }
 
 /// The type end `slot` takes at a decision. Another joint OD is decided by trials: measured
@@ -374,11 +396,13 @@ int nextType(int slot, const Candidate& cd, const std::vector<PipeCandidate>& ca
 /// radius plus the offset) joins the end's evidence on its track, whose probabilities the end
 /// publishes. At a decision (not a tracked cycle) the end may take another type (nextType);
 /// its filter and its evidence then restart (another model's origin, measurements against the
-/// new model). The evidence restarts when the end has had no pose for tracking.max_gap, and
-/// with it the end's instance id (a new one from *next_id).
+/// new model). The evidence restarts when the end has had no pose for tracking.max_gap, or its
+/// fit moved to another end, and with it the end's instance id: the id of the other end's
+/// track (`labels`' others) where one follows it, else a new one from *next_id.
 void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
                  const std::vector<PipeCandidate>& cands, int start, int64_t stamp_ns,
-                 const EstimatorConfig& config, TypeModelCache* type_models, EndType* et,
+                 const EstimatorConfig& config, TypeModelCache* type_models,
+                 const std::array<LabelState, kNumEnds>& labels, EndType* et,
                  EndPoseFilter* filter, uint32_t* next_id, EndEstimate* e) {
   if (!e->valid) {
     if (et->last_valid_ns > 0 &&
@@ -390,6 +414,21 @@ void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
     return;
   }
   et->last_valid_ns = stamp_ns;
+  // The label's fit moved to another end (several pipes in view, its track lost): another
+  // instance, with an id and evidence of its own.
+  if (cd && et->id != 0 && (cd->fit.origin - et->last_origin).norm() > config.instances.track_gate) {
+    et->id = 0;
+    et->evidence.reset();
+    et->trials.clear();
+  }
+  if (cd) et->last_origin = cd->fit.origin;
+  // An end that another track follows (an OtherEnd) keeps that track's id as the primary end.
+  if (et->id == 0 && cd)
+    for (const LabelState& ls : labels)
+      for (const OtherEnd& o : ls.others)
+        if (et->id == 0 && o.track.model == static_cast<EndLabel>(slot) &&
+            (o.track.origin - cd->fit.origin).norm() <= config.instances.track_gate)
+          et->id = o.id;
   if (et->id == 0) et->id = (*next_id)++;
   e->instance_id = et->id;
   if (config.typing.enabled && cd) {
@@ -420,6 +459,66 @@ void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
   e->type_measurements = et->evidence.joint.count();
   e->measured_tube_od = 2 * et->evidence.tube.mean();
   e->tube_measurements = et->evidence.tube.count();
+}
+
+/// Stage "other ends" (several pipes at once): each label's other fits (fitLabel) published in
+/// result->others with their own instance ids and their own type evidence (measured against the
+/// label's model, whose type they are given). A fit within instances.track_gate of an end
+/// already published this cycle is the same end, and is dropped. A track without a fit for
+/// tracking.max_gap is forgotten (its id is never reused).
+void outputOthers(std::array<std::vector<OtherFit>, kNumEnds>* fits, EstimatorState* state,
+                  const EndModels& models, const std::vector<PipeCandidate>& cands,
+                  const std::vector<CycleCamera>& cams, int64_t stamp_ns,
+                  const EstimatorConfig& config, CycleResult* result) {
+  const double gate = config.instances.track_gate;
+  const auto duplicate = [&](const Eigen::Vector3d& o) {
+    for (const EndEstimate& e : result->ends)
+      if (e.valid && (e.T_world_end.translation() - o).norm() < gate) return true;
+    for (const EndEstimate& e : result->others)
+      if ((e.T_world_end.translation() - o).norm() < gate) return true;
+    return false;
+  };
+  for (int l = 0; l < kNumEnds; ++l) {
+    LabelState& ls = state->labels[l];
+    for (OtherFit& f : (*fits)[l]) {
+      const Candidate& cd = f.cd;
+      const bool ok = cd.ok && static_cast<int>(cd.fit.label) == l && !duplicate(cd.fit.origin);
+      if (!ok) continue;
+      if (f.other < 0) {
+        ls.others.push_back(OtherEnd());
+        ls.others.back().id = state->next_id++;
+        f.other = static_cast<int>(ls.others.size()) - 1;
+      }
+      OtherEnd& o = ls.others[static_cast<size_t>(f.other)];
+      o.track.follow(stamp_ns,
+                     {cd.fit.label, cd.fit.origin, cd.fit.z, cd.tracked, cd.direction_margin,
+                      cd.has_support, cd.support_z},
+                     config.tracking.max_gap, config.tracking.max_offset);
+      EndEstimate e;
+      fillEnd(l, cd, cams, config, &e, nullptr).addTo(&e, config);
+      e.instance_id = o.id;
+      const int type = state->types[l].type;
+      if (config.typing.enabled) {
+        const RadiusCheck rc = radiusOffset(models.models[l], models.joint_radius[l], cd.fit.origin,
+                                            cd.fit.z, cd.pts, cd.eyes, cd.fit.inlier_mask);
+        if (rc.ok) o.evidence.joint.add(models.joint_radius[l] + rc.offset, rc.std);
+      }
+      e.type = cands[type].name;
+      for (const PipeCandidate& c : cands) e.type_names.push_back(c.name);
+      e.type_probabilities = o.evidence.probabilities(cands, config.typing, type);
+      e.measured_od = 2 * o.evidence.joint.mean();
+      e.measured_od_spread = 2 * o.evidence.joint.spread();
+      e.type_measurements = o.evidence.joint.count();
+      result->others.push_back(std::move(e));
+    }
+    // An end without a fit this cycle keeps its track (and id) for tracking.max_gap: one cycle
+    // of a dropped-out joint does not make it another end.
+    ls.others.erase(std::remove_if(ls.others.begin(), ls.others.end(),
+                                   [&](const OtherEnd& o) {
+                                     return o.track.gap(stamp_ns) > config.tracking.max_gap;
+                                   }),
+                    ls.others.end());
+  }
 }
 
 /// A box end and a pin end are made up only within one connection type: an end without a
@@ -513,9 +612,10 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
                          boxDecides(cams, state.labels[0].track, stamp_ns, config_.tracking)};
   std::array<Candidate, kNumEnds> cand;
   std::array<LabelTiming, kNumEnds> timing;
+  std::array<std::vector<OtherFit>, kNumEnds> other_fits;
   auto fitOne = [&](int l) {
     cand[l] = fitLabel(ctx, l, raw[l], carved[l], &state.labels[l], &timing[l],
-                       &result.instances[l]);
+                       &result.instances[l], &other_fits[l]);
   };
   if (config_.threads >= 2) {
     auto other = std::async(std::launch::async, fitOne, 1);
@@ -534,10 +634,11 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
     const Candidate* cd = owner[slot] < 0 ? nullptr : &cand[owner[slot]];
     outputEnd(slot, cd, cand, cams, stamp_ns, &state.filters[slot], config_, &result);
     classifyEnd(slot, cd, models, impl_->candidates, impl_->start, stamp_ns, config_,
-                &impl_->type_models,
-                &state.types[slot], &state.filters[slot], &state.next_id, &result.ends[slot]);
+                &impl_->type_models, state.labels, &state.types[slot], &state.filters[slot],
+                &state.next_id, &result.ends[slot]);
   }
   shareConnectionType(&state.types, &state.filters, config_.typing);
+  outputOthers(&other_fits, &state, models, impl_->candidates, cams, stamp_ns, config_, &result);
   if (config_.drift.enabled)
     watchDrift(cams, left_out, raw, cand, owner, models, stamp_ns, config_, &state.drift,
                &result);

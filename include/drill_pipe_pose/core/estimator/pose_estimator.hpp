@@ -72,6 +72,10 @@ struct CycleTiming {
 
 struct CycleResult {
   std::array<EndEstimate, kNumEnds> ends;  ///< [0] box_end, [1] pin_end
+  /// Every other end in the work zone that a detection boxes and the fit accepts (several pipes
+  /// at once), each with its own instance id; valid, no temporal filter. `ends` is the primary
+  /// pair (the end each label's track follows).
+  std::vector<EndEstimate> others;
   CycleTiming timing;
   std::vector<std::string> camera_errors;  ///< bad inputs, one line per skipped camera
   std::vector<std::string> cameras_used;   ///< cameras whose frames entered this cycle
