@@ -48,10 +48,7 @@ class PoseEstimatorNode {
         runner_(cfg_, &tf_) {
     static_tf_sub_ = nh_.subscribe("/tf_static", 100, &PoseEstimatorNode::onStaticTf, this);
     for (const auto& cam : cfg_.cameras) {
-      const std::string topic = conventions::sensorFrameTopic(cam);
-      subs_.push_back(nh_.subscribe<SensorFrame>(
-          topic, 10, [this, cam](const SensorFrameConstPtr& m) { onFrame(cam, m); },
-          ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay()));
+      subs_[cam] = subscribe(cam);
       counters_[cam];
     }
     for (int e = 0; e < kNumEnds; ++e)
@@ -64,8 +61,12 @@ class PoseEstimatorNode {
     fused_pub_ = pnh_.advertise<sensor_msgs::PointCloud2>("debug/fused", 1);
     segmented_pub_ = pnh_.advertise<sensor_msgs::PointCloud2>("debug/segmented", 1);
     marker_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("debug/models", 1);
-    poll_timer_ = nh_.createWallTimer(ros::WallDuration(0.005),
-                                      [this](const ros::WallTimerEvent&) { processReady(); });
+    poll_timer_ = nh_.createWallTimer(ros::WallDuration(0.005), [this](const ros::WallTimerEvent&) {
+      processReady();
+      const double now = wallNow();
+      for (const auto& cam : cfg_.cameras)
+        resubscribeIfSilent(cam, runner_.sync().stats().at(cam), now, &counters_[cam]);
+    });
     diag_timer_ = nh_.createWallTimer(ros::WallDuration(1.0),
                                       [this](const ros::WallTimerEvent&) { publishDiagnostics(); });
     std::string cams;
@@ -99,7 +100,32 @@ class PoseEstimatorNode {
 
   struct Counters {
     uint64_t bad_input = 0, tf_failures = 0, received_at_last_diag = 0;
+    double last_resubscribe = 0;  ///< [s] wall clock of the last re-subscription
   };
+
+  ros::Subscriber subscribe(const std::string& cam) {
+    return nh_.subscribe<SensorFrame>(
+        conventions::sensorFrameTopic(cam), 10,
+        [this, cam](const SensorFrameConstPtr& m) { onFrame(cam, m); }, ros::VoidConstPtr(),
+        ros::TransportHints().tcpNoDelay());
+  }
+
+  /// A camera that sent frames and has gone silent for sync/camera_timeout is subscribed to
+  /// afresh, every kResubscribeEvery s while it stays silent (the old subscription shut down): a sensor node restarted on its old
+  /// XML-RPC port (the kernel may hand it back) keeps its URI, and roscpp, seeing the same
+  /// publisher, never connects to the new process (a restarted cam5 stayed silent for good in the
+  /// fault-injection rostest).
+  void resubscribeIfSilent(const std::string& cam, const CameraSyncStats& st, double now,
+                           Counters* cnt) {
+    constexpr double kResubscribeEvery = 1.0;  // [s] cheap: one master call
+    if (st.received == 0 || st.live || now - cnt->last_resubscribe < kResubscribeEvery) return;
+    cnt->last_resubscribe = now;
+    ROS_INFO("pose_estimator: %s silent for %.1f s: subscribing to %s afresh (a restarted sensor "
+             "node)", cam.c_str(), now - st.last_arrival,
+             conventions::sensorFrameTopic(cam).c_str());
+    subs_[cam].shutdown();  // first: a second Subscriber would share the stale subscription
+    subs_[cam] = subscribe(cam);
+  }
 
   void onFrame(const std::string& cam, const SensorFrameConstPtr& msg) {
     const int64_t stamp = toNs(msg->header.stamp);
@@ -531,7 +557,7 @@ class PoseEstimatorNode {
   tf2_ros::TransformBroadcaster tf_broadcaster_;
   std::map<std::string, double> throttle_last_;                       ///< wall time [s] by key
   ros::Subscriber static_tf_sub_;
-  std::vector<ros::Subscriber> subs_;
+  std::map<std::string, ros::Subscriber> subs_;  ///< per camera
   std::array<ros::Publisher, kNumEnds> pose_pubs_;
   ros::Publisher ends_pub_, types_pub_, status_pub_, diag_pub_, fused_pub_, segmented_pub_, marker_pub_;
   ros::WallTimer poll_timer_, diag_timer_;
