@@ -103,6 +103,8 @@ ParamTable<EstimatorConfig> makeEstimatorTable() {
         "grid cell edge of the clustering into candidate ends"),
       P("instances/max_instances", instances.max_instances, "", atLeast(1),
         "clusters decided per cycle"),
+      P("instances/max_other_ends", instances.max_other_ends, "", atLeast(0),
+        "other ends each label follows and publishes besides its own (pipe_end_types); 0: none"),
       P("instances/track_gate", instances.track_gate, "m", positive(),
         "a track follows the cluster with a point this close to its prediction"),
       P("instances/min_cost_margin", instances.min_cost_margin, "", atLeast(0),

@@ -170,8 +170,10 @@ Candidate fitLabel(const CycleContext& ctx, int l, const std::vector<CloudPoint>
   cd = chooseCandidate(ctx, l, inst, track_k >= 0, raw, &state->memory, &chosen);
   // The decision's other valid fits of this label's model start ends of their own (where an
   // other end already follows one, outputOthers drops it as a duplicate).
+  const size_t max_others = static_cast<size_t>(config.instances.max_other_ends);
   for (size_t k = 0; k < inst.size(); ++k)
-    if (static_cast<int>(k) != chosen && inst[k].ok && static_cast<int>(inst[k].fit.label) == l)
+    if (static_cast<int>(k) != chosen && inst[k].ok && static_cast<int>(inst[k].fit.label) == l &&
+        state->others.size() + others->size() < 2 * max_others)
       others->push_back({-1, std::move(inst[k])});
   return cd;
 }

@@ -2,6 +2,8 @@
 
 #include "type_trial.hpp"
 
+#include <algorithm>
+
 
 namespace drill_pipe_pose {
 
@@ -16,9 +18,10 @@ const ProfileModel& TypeModelCache::at(int slot, int type) {
 
 std::vector<TypeTrial> runTypeTrials(int slot, const Candidate& cd, const std::vector<int>& types,
                                      const EstimatorConfig& config, TypeModelCache* models) {
-  // The points the pose refinement uses (those clear of a level support), every one, and the
-  // refinement's full iterations: on the coarse subsample one trial's offset scattered by about
-  // 1 mm, enough to move a worn 5" NC50 joint to 6-3/8" (thesis_vertical_worn, seed 94).
+  // The points the pose refinement uses (those clear of a level support), subsampled as the
+  // coarse stages are, with the refinement's full iterations: every point made the trials cost
+  // as much as the rest of the cycle on the cluttered scene (its tracks restart often), and the
+  // trials are averaged along the track anyway (nextType).
   std::vector<size_t> idx;
   const float z_clear = cd.support_z + static_cast<float>(config.profile_fit.support_clearance);
   for (size_t i = 0; i < cd.pts.size(); ++i)
@@ -27,7 +30,8 @@ std::vector<TypeTrial> runTypeTrials(int slot, const Candidate& cd, const std::v
     idx.resize(cd.pts.size());
     for (size_t i = 0; i < idx.size(); ++i) idx[i] = i;
   }
-  const size_t stride = 1;
+  const size_t n = std::max<size_t>(1, config.profile_fit.coarse_points);
+  const size_t stride = std::max<size_t>(1, (idx.size() + n - 1) / n);
   std::vector<Eigen::Vector3f> pts, eyes;
   std::vector<float> sig;
   for (size_t j = 0; j < idx.size(); j += stride) {

@@ -111,6 +111,9 @@ struct EstimatorConfig {
     /// sparse far side of an angled joint off.
     double cluster_tolerance = 0.08;
     int max_instances = 3;            ///< clusters decided (the track's and the largest others)
+    /// Other ends (several pipes at once) each label follows besides its own, at most; 0: only
+    /// the primary pair. Each costs a tracked fit per cycle.
+    int max_other_ends = 4;
     /// [m] a track follows the cluster with a point this close to its predicted origin; a
     /// decided instance joins the memory entry this close to its origin.
     double track_gate = 0.2;
