@@ -341,6 +341,30 @@ class PoseEstimatorNode {
     return {arrow, label};
   }
 
+  /// The other ends (several pipes at once), each under its instance id, grey; they fade out a
+  /// few cycles after their last fit (lifetime) instead of being deleted.
+  void otherEndMarkers(const CycleResult& r, const ros::Time& stamp,
+                       visualization_msgs::MarkerArray* ma) const {
+    for (const EndEstimate& est : r.others) {
+      visualization_msgs::Marker m;
+      m.header.stamp = stamp;
+      m.header.frame_id = cfg_.world_frame;
+      m.ns = std::string(labelName(est.label)) + " other";
+      m.id = static_cast<int>(est.instance_id);
+      m.type = visualization_msgs::Marker::MESH_RESOURCE;
+      m.mesh_resource =
+          std::string("package://drill_pipe_pose/models/") + labelName(est.label) + ".stl";
+      m.scale.x = m.scale.y = m.scale.z = 1.0;
+      m.color.a = 0.5f;
+      m.color.r = m.color.g = m.color.b = 0.7f;
+      m.action = visualization_msgs::Marker::ADD;
+      m.pose = tf2::toMsg(est.T_world_end);
+      m.lifetime = ros::Duration(0.3);
+      ma->markers.push_back(m);
+      for (auto& extra : axisAndLabel(m, est)) ma->markers.push_back(std::move(extra));
+    }
+  }
+
   void publishDebug(const CycleResult& r, const ros::Time& stamp,
                     const std::vector<CameraInput>& inputs) {
     if (fused_pub_.getNumSubscribers() > 0)
@@ -372,26 +396,7 @@ class PoseEstimatorNode {
       ma.markers.push_back(m);
       for (auto& extra : axisAndLabel(m, r.ends[e])) ma.markers.push_back(std::move(extra));
     }
-    // The other ends, each under its instance id; they fade out a few cycles after their last
-    // fit (lifetime) instead of being deleted.
-    for (const EndEstimate& est : r.others) {
-      visualization_msgs::Marker m;
-      m.header.stamp = stamp;
-      m.header.frame_id = cfg_.world_frame;
-      m.ns = std::string(labelName(est.label)) + " other";
-      m.id = static_cast<int>(est.instance_id);
-      m.type = visualization_msgs::Marker::MESH_RESOURCE;
-      m.mesh_resource =
-          std::string("package://drill_pipe_pose/models/") + labelName(est.label) + ".stl";
-      m.scale.x = m.scale.y = m.scale.z = 1.0;
-      m.color.a = 0.5f;
-      m.color.r = m.color.g = m.color.b = 0.7f;
-      m.action = visualization_msgs::Marker::ADD;
-      m.pose = tf2::toMsg(est.T_world_end);
-      m.lifetime = ros::Duration(0.3);
-      ma.markers.push_back(m);
-      for (auto& extra : axisAndLabel(m, est)) ma.markers.push_back(std::move(extra));
-    }
+    otherEndMarkers(r, stamp, &ma);
     // Each camera's colour frustum (to frustum_range), in its optical frame.
     for (size_t i = 0; i < inputs.size(); ++i) {
       const CameraInfoData& ci = inputs[i].frame.color_info;
