@@ -388,7 +388,12 @@ int nextType(int slot, const Candidate& cd, const std::vector<PipeCandidate>& ca
       t.offset = et.trials[t.type].mean();
     }
     const int chosen = chooseTrial(trials, config.typing, start);
-    if (chosen >= 0 && chosen != et.type) return chosen;
+    // The configured type is left only on kSettled trial rounds of both: one or two rounds of a
+    // 5" NC50 pin end read as 7" through the node (estimator_replay rostest, seed 3).
+    const bool enough = et.type != start ||
+                        (chosen >= 0 && et.trials[chosen].count() >= static_cast<size_t>(kSettled) &&
+                         et.trials[start].count() >= static_cast<size_t>(kSettled));
+    if (chosen >= 0 && chosen != et.type && enough) return chosen;
   }
   const int top = topType(p);
   const double sp = config.typing.switch_probability;
