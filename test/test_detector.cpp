@@ -221,6 +221,36 @@ TEST(Decode, BadShapesNameTheSource) {
               {"~output_format", "yolov9"});
 }
 
+// Found by test/fuzz/fuzz_yolo_decoding (test/fuzz/regressions/yolo_decoding/): a shape with a
+// zero dimension passed guessOutputLayout and decodeOutputs read past its (empty) data; an output
+// of another shape than the layout's was decoded past its end; the letterbox's roi end overflowed
+// an int.
+TEST(Decode, EmptyOrMismatchedShapesAreRejected) {
+  OutputBlob b;
+  b.dims = {0, 7, 4, 5};  // no data at all
+  expectError([&] { guessOutputLayout({b}, OutputFormat::kAuto, "m"); },
+              {"m", "[0, 7, 4, 5]", "empty or negative"});
+  b.dims = {1, 7, -4, 5};
+  expectError([&] { guessOutputLayout({b}, OutputFormat::kGrid, "m"); }, {"[1, 7, -4, 5]"});
+  std::vector<float> data(7 * 4 * 5, 0.0f);
+  b.dims = {1, 7, 4, 5};
+  b.data = data.data();
+  const OutputLayout l = guessOutputLayout({b}, OutputFormat::kAuto, "m");
+  OutputBlob other = b;
+  other.dims = {1, 9, 4, 5};  // another forward pass's shape: 4 classes, not 2
+  expectError([&] { decodeOutputs({other}, l, 40, 32, 0.3f); }, {"[1, 9, 4, 5]", "2 classes"});
+  other.dims = {0, 7, 4, 5};
+  expectError([&] { decodeOutputs({other}, l, 40, 32, 0.3f); }, {"[0, 7, 4, 5]"});
+  other.dims = b.dims;
+  other.data = nullptr;
+  expectError([&] { decodeOutputs({other}, l, 40, 32, 0.3f); }, {"no data"});
+  EXPECT_TRUE(decodeOutputs({b}, l, 40, 32, 0.3f).empty());
+
+  const Letterbox lb = Letterbox::compute(2147483000, 0, 2000, 100, 416, 416);
+  const ScoredBox o = lb.toImage(box(0, 0.9f, 0, 0, 416, 416));
+  EXPECT_FLOAT_EQ(o.x_max, 2147485000.0f);
+}
+
 // ---------------------------------------------------------------------------------------------
 TEST(Nms, PerClassCrossClassAndTopK) {
   std::vector<ScoredBox> in = {box(0, 0.9f, 0, 0, 10, 10), box(0, 0.8f, 1, 1, 11, 11),

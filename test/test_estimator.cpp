@@ -1256,7 +1256,9 @@ TEST(PoseEstimator, AnotherPipeSizesEndIsNotTakenAndTwoAlikeGiveNoPose) {
       opt.seed = 300 + k;
       auto inputs = renderAll(scene, ring({5, 5, 1.0}, 5.5, 4.5), opt);
       for (auto& in : inputs) in.frame.stamp_ns = 1000000000LL + k * 33000000LL;
-      const EndEstimate& e = est.process(inputs).end(EndLabel::kBoxEnd);
+      // (The result is kept: a reference into the temporary would dangle - found by ASan.)
+      const CycleResult r = est.process(inputs);
+      const EndEstimate& e = r.end(EndLabel::kBoxEnd);
       if (k < cfg.instances.min_decisions - 1) {
         EXPECT_FALSE(e.valid) << describe(e);
         EXPECT_NE(e.reason.find("not choosing yet"), std::string::npos) << e.reason;

@@ -115,3 +115,29 @@ TEST(RigCalibrationBadInput, DuplicateUnknownAndMissing) {
   expectRejected("cameras: [", {"not valid YAML"});
   EXPECT_THROW(loadRigCalibration("/nonexistent/rig.yaml"), InputError);
 }
+
+// Found by test/fuzz/fuzz_rig_yaml (test/fuzz/regressions/rig_yaml/): a file of the wrong shape
+// threw yaml-cpp's exception instead of an InputError; a world frame or sensor name with control
+// characters or broken UTF-8 was accepted and written back unquoted (no round trip).
+TEST(RigCalibrationBadInput, WrongShapesAndNames) {
+  expectRejected(replace(kValid, "world_frame: world", "world_frame: [a, b]"),
+                 {"world_frame", "must be a string"});
+  expectRejected(replace(kValid, "world_frame: world", "world_frame: \"w\\x01rld\""),
+                 {"world_frame", "must match"});
+  expectRejected(replace(kValid, "world_frame: world", "world_frame: \"a: b\""),
+                 {"world_frame", "must match"});
+  expectRejected(replace(kValid, "name: cam2", "name: {a: 1}"), {"cameras[1]: name"});
+  expectRejected(replace(kValid, "    rotation: [0.0, 0.0, 0.0, 1.0]",
+                         "    rotation: [0.0, 0.0, 0.0, 1.0]\n    sensor: \"kin ect\""),
+                 {"camera 'cam1' sensor", "must match"});
+  expectRejected(std::string("[a, b]: 1\n") + kValid, {"rig.yaml"});
+  // Names of the allowed characters load and round-trip.
+  const RigCalibration rig = parseRigCalibration(
+      replace(replace(kValid, "world_frame: world", "world_frame: rig/world_2.0-a"),
+              "    rotation: [0.0, 0.0, 0.0, 1.0]",
+              "    rotation: [0.0, 0.0, 0.0, 1.0]\n    sensor: kinect_v2.lab-1"),
+      "rig.yaml");
+  const RigCalibration back = parseRigCalibration(rigCalibrationToYaml(rig), "again");
+  EXPECT_EQ(back.world_frame, "rig/world_2.0-a");
+  EXPECT_EQ(back.cameras[0].sensor, "kinect_v2.lab-1");
+}

@@ -561,6 +561,18 @@ TEST(SimScenario, BadFilesNameFileKeyAndExpectation) {
             std::string::npos);
   EXPECT_NE(message(head + pipe + "colour: red\n").find("unknown top-level key \"colour\""),
             std::string::npos);
+  // A map as a key (found by test/fuzz/fuzz_scene_yaml): yaml-cpp's bad conversion escaped.
+  EXPECT_NE(message(head + pipe + "{a: 1}: 2\n").find("bad.yaml: "), std::string::npos);
+  EXPECT_NE(message(head + "pipes: [{name: p, type: tool_joint, end: box_end, pose: {translation: "
+                           "[0, 0, 0]}, motion: {[v]: 1}}]\n")
+                .find("bad.yaml: "),
+            std::string::npos);
+  // A target of 1e300 squares (found by fuzz_scene_yaml): converted to int, undefined behaviour.
+  EXPECT_NE(message(head +
+                    "calibration_target: {type: charuco, squares: [5, 1e300], square_length: "
+                    "0.24, hold_s: 2, placements: [{translation: [0, 0, 1]}]}\n")
+                .find("squares: expected two whole numbers, at most 1000"),
+            std::string::npos);
   EXPECT_THROW(sensorProfile("kinect_v3"), InputError);
 }
 

@@ -344,7 +344,11 @@ std::vector<std::pair<std::string, YAML::Node>> flattenYamlFile(const std::strin
   std::vector<std::pair<std::string, YAML::Node>> out;
   if (root.IsNull()) return out;
   if (!root.IsMap()) fail(path, ": expected a map of parameters at the top level");
-  flatten(root, "", &out);
+  try {
+    flatten(root, "", &out);
+  } catch (const YAML::Exception& e) {  // a key that is a list or a map: `{a: 1}: 2`
+    fail(path, ": every key must be a name: ", e.what());
+  }
   return out;
 }
 

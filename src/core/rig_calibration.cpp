@@ -67,20 +67,41 @@ double optionalNumber(const YAML::Node& node, double fallback, double lo, double
   return x;
 }
 
+/// A string field: InputError naming it when it is a list, a map or null.
+std::string scalarText(const YAML::Node& node, const std::string& where) {
+  if (!node.IsScalar()) fail(where, " must be a string");
+  return node.Scalar();
+}
+
+/// A TF frame or sensor model name: printable ASCII, no spaces (a control character or a byte
+/// of broken UTF-8 in a frame id is a corrupt file, and TF would carry it on).
+std::string frameName(const YAML::Node& node, const std::string& where) {
+  static const std::regex re("[A-Za-z0-9_][A-Za-z0-9_./-]*");
+  const std::string s = scalarText(node, where);
+  if (!std::regex_match(s, re))
+    fail(where, " = '", s, "' must match [A-Za-z0-9_][A-Za-z0-9_./-]*");
+  return s;
+}
+
+/// `s` as a YAML scalar that reads back as `s` (plain where it can be, else quoted and escaped:
+/// a world frame or sensor name with ': ', '#' or a control character in it).
+std::string yamlScalar(const std::string& s) {
+  YAML::Emitter e;
+  e << s;
+  return std::string(e.c_str(), e.size());
+}
+
 }  // namespace
 
-RigCalibration parseRigCalibration(const std::string& text, const std::string& source) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(text);
-  } catch (const YAML::Exception& e) {
-    fail(source, ": not valid YAML: ", e.what());
-  }
+namespace {
+
+/// The rig file's content (parseRigCalibration): validated, every error naming the field.
+RigCalibration parseRoot(const YAML::Node& root, const std::string& source) {
   if (!root.IsMap()) fail(source, ": expected a map with 'cameras'");
   rejectUnknownKeys(root, {"world_frame", "cameras"}, source);
   RigCalibration rig;
-  if (root["world_frame"]) rig.world_frame = root["world_frame"].as<std::string>();
-  if (rig.world_frame.empty()) fail(source, ": world_frame is empty");
+  if (root["world_frame"])
+    rig.world_frame = frameName(root["world_frame"], source + ": world_frame");
   const YAML::Node cams = root["cameras"];
   if (!cams || !cams.IsSequence() || cams.size() == 0)
     fail(source, ": 'cameras' must be a non-empty list");
@@ -91,7 +112,7 @@ RigCalibration parseRigCalibration(const std::string& text, const std::string& s
     if (!c.IsMap()) fail(at, " must be a map with name, translation, rotation");
     if (!c["name"]) fail(at, ": field 'name' is missing");
     CameraCalibration cal;
-    cal.name = c["name"].as<std::string>();
+    cal.name = scalarText(c["name"], at + ": name");
     const std::string where = source + ": camera '" + cal.name + "'";
     if (!std::regex_match(cal.name, name_re))
       fail(where, ": name must match [A-Za-z][A-Za-z0-9_]* (it prefixes topics and frames)");
@@ -106,7 +127,7 @@ RigCalibration parseRigCalibration(const std::string& text, const std::string& s
     const Eigen::Quaterniond quat(q[3] / qn, q[0] / qn, q[1] / qn, q[2] / qn);
     cal.T_world_link.linear() = quat.toRotationMatrix();
     cal.T_world_link.translation() = Eigen::Vector3d(t[0], t[1], t[2]);
-    if (c["sensor"]) cal.sensor = c["sensor"].as<std::string>();
+    if (c["sensor"]) cal.sensor = frameName(c["sensor"], where + " sensor");
     cal.depth_offset = optionalNumber(c["depth_offset"], 0.0, -kMaxDepthOffset, kMaxDepthOffset,
                                       where + " depth_offset [m]");
     cal.depth_scale = optionalNumber(c["depth_scale"], 1.0, kMinDepthScale, kMaxDepthScale,
@@ -114,6 +135,22 @@ RigCalibration parseRigCalibration(const std::string& text, const std::string& s
     rig.cameras.push_back(cal);
   }
   return rig;
+}
+
+}  // namespace
+
+RigCalibration parseRigCalibration(const std::string& text, const std::string& source) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    fail(source, ": not valid YAML: ", e.what());
+  }
+  try {
+    return parseRoot(root, source);
+  } catch (const YAML::Exception& e) {  // a node of an unexpected kind (a list as a key, ...)
+    fail(source, ": ", e.what());
+  }
 }
 
 RigCalibration loadRigCalibration(const std::string& path) {
@@ -127,13 +164,13 @@ RigCalibration loadRigCalibration(const std::string& path) {
 std::string rigCalibrationToYaml(const RigCalibration& rig) {
   std::ostringstream s;
   s.precision(17);
-  s << "world_frame: " << rig.world_frame << "\ncameras:\n";
+  s << "world_frame: " << yamlScalar(rig.world_frame) << "\ncameras:\n";
   for (const auto& c : rig.cameras) {
     const Eigen::Quaterniond q(c.T_world_link.linear());
     const Eigen::Vector3d t = c.T_world_link.translation();
-    s << "  - name: " << c.name << "\n    sensor: " << c.sensor << "\n    translation: [" << t.x()
-      << ", " << t.y() << ", " << t.z() << "]\n    rotation: [" << q.x() << ", " << q.y() << ", "
-      << q.z() << ", " << q.w() << "]\n";
+    s << "  - name: " << c.name << "\n    sensor: " << yamlScalar(c.sensor)
+      << "\n    translation: [" << t.x() << ", " << t.y() << ", " << t.z() << "]\n    rotation: ["
+      << q.x() << ", " << q.y() << ", " << q.z() << ", " << q.w() << "]\n";
     // The depth calibration only where there is one: a plain rig file stays as it was.
     if (c.depth_offset != 0.0) s << "    depth_offset: " << c.depth_offset << "\n";
     if (c.depth_scale != 1.0) s << "    depth_scale: " << c.depth_scale << "\n";

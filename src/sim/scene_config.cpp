@@ -262,7 +262,10 @@ CalibrationTargetConfig parseCalibrationTarget(const YAML::Node& n, const std::s
   calibration::TargetGeometry& g = c.geometry;
   g.type = calibration::parseTargetType(yamlGet<std::string>(n, "type", w), w + ".type");
   const Eigen::Vector2d sq = yamlVector<2>(yamlChild(n, "squares", w), "squares", w);
-  if (sq != sq.array().round().matrix()) fail(w, ": squares: expected two whole numbers");
+  // (Range-checked before the conversion to int: 1e300 squares is no int.)
+  if (sq != sq.array().round().matrix() ||
+      !(sq.cwiseAbs().maxCoeff() <= calibration::kMaxTargetSquares))
+    fail(w, ": squares: expected two whole numbers, at most ", calibration::kMaxTargetSquares);
   g.squares_x = static_cast<int>(sq.x());
   g.squares_y = static_cast<int>(sq.y());
   g.square_length = yamlGet<double>(n, "square_length", w);
@@ -422,6 +425,16 @@ SceneConfig parseRoot(const YAML::Node& root, const std::string& src) {
   return cfg;
 }
 
+/// parseRoot with yaml-cpp's own exceptions (a map or a list where a key or a string belongs:
+/// `{a: 1}: 2`) as the InputError every other mistake in the file gives.
+SceneConfig parseChecked(const YAML::Node& root, const std::string& source) {
+  try {
+    return parseRoot(root, source);
+  } catch (const YAML::Exception& e) {
+    fail(source, ": ", e.what());
+  }
+}
+
 }  // namespace
 
 SceneConfig parseSceneConfig(const std::string& yaml_text, const std::string& source) {
@@ -431,7 +444,7 @@ SceneConfig parseSceneConfig(const std::string& yaml_text, const std::string& so
   } catch (const YAML::Exception& e) {
     fail(source, ": YAML syntax error: ", e.what());
   }
-  return parseRoot(root, source);
+  return parseChecked(root, source);
 }
 
 std::string sceneCatalogPath(const std::string& scene_path) {
@@ -439,7 +452,7 @@ std::string sceneCatalogPath(const std::string& scene_path) {
 }
 
 SceneConfig loadSceneConfig(const std::string& path) {
-  return parseRoot(yamlLoadFile(path), path);
+  return parseChecked(yamlLoadFile(path), path);
 }
 
 namespace {

@@ -114,7 +114,8 @@ std::string paramsMarkdown(const std::vector<ParamInfo>& rows,
                            const std::vector<std::string>& defaults);
 
 /// Flattens a YAML map into '/'-separated keys: {a: {b: 1}, c: [1, 2]} -> a/b, c (sequences are
-/// leaves). Throws InputError naming `source` when the file cannot be read.
+/// leaves). Throws InputError naming the file when it cannot be read, is not a map or has a key
+/// that is not a name (a list or a map as a key).
 std::vector<std::pair<std::string, YAML::Node>> flattenYamlFile(const std::string& path);
 
 /// Generated sections of a text file (docs/parameters.md): the lines between

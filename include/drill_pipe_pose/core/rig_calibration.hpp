@@ -42,7 +42,8 @@ struct RigCalibration {
 
 /// Loads and validates a rig file. Throws InputError naming the file, the camera and the field
 /// (unit quaternion, finite numbers, 3 / 4 elements, unique names, at least one camera, the depth
-/// calibration within its bounds).
+/// calibration within its bounds, world_frame and sensor names of [A-Za-z0-9_][A-Za-z0-9_./-]*),
+/// also for a file of the wrong shape (a list where a string belongs, a list as a key).
 RigCalibration loadRigCalibration(const std::string& path);
 /// The same from YAML text; `source` names it in errors.
 RigCalibration parseRigCalibration(const std::string& yaml_text, const std::string& source);

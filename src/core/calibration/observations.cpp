@@ -90,8 +90,15 @@ TargetGeometry target(const YAML::Node& n, const std::string& where) {
     t.type = TargetGeometry::Type::kChessboard;
   else
     fail(where, " type = '", type, "' (expected charuco or chessboard)");
-  t.squares_x = static_cast<int>(number(n["squares_x"], where + " squares_x"));
-  t.squares_y = static_cast<int>(number(n["squares_y"], where + " squares_y"));
+  // (Range-checked before the conversion to int.)
+  auto squares = [&](const char* key) {
+    const double s = number(n[key], where + " " + key);
+    if (std::abs(s) > kMaxTargetSquares)
+      fail(where, " ", key, " = ", s, ": at most ", kMaxTargetSquares, " squares per side");
+    return static_cast<int>(s);
+  };
+  t.squares_x = squares("squares_x");
+  t.squares_y = squares("squares_y");
   t.square_length = number(n["square_length"], where + " square_length [m]");
   if (t.type == TargetGeometry::Type::kCharuco) {
     t.marker_length = number(n["marker_length"], where + " marker_length [m]");

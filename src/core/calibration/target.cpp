@@ -146,6 +146,9 @@ void validateTarget(const TargetGeometry& t, const std::string& where) {
     fail(where, ": squares_x = ", t.squares_x, ": at least ", min_squares, " squares needed");
   if (t.squares_y < min_squares)
     fail(where, ": squares_y = ", t.squares_y, ": at least ", min_squares, " squares needed");
+  if (t.squares_x > kMaxTargetSquares || t.squares_y > kMaxTargetSquares)
+    fail(where, ": squares ", t.squares_x, " x ", t.squares_y, ": at most ", kMaxTargetSquares,
+         " squares per side");
   if (!(t.square_length > 0.0) || !std::isfinite(t.square_length))
     fail(where, ": square_length = ", t.square_length, ": must be a positive length [m]");
   if (!charuco) return;

@@ -42,8 +42,9 @@ Letterbox Letterbox::compute(int roi_x, int roi_y, int roi_w, int roi_h, int inp
 ScoredBox Letterbox::toImage(const ScoredBox& b) const {
   ScoredBox o = b;
   const float x0 = static_cast<float>(roi_x), y0 = static_cast<float>(roi_y);
-  const float x1 = static_cast<float>(roi_x + roi_width),
-              y1 = static_cast<float>(roi_y + roi_height);
+  // (In double: roi_x + roi_width may not fit in an int for a roi far out.)
+  const float x1 = static_cast<float>(static_cast<double>(roi_x) + roi_width),
+              y1 = static_cast<float>(static_cast<double>(roi_y) + roi_height);
   o.x_min = std::clamp(toImageX(b.x_min), x0, x1);
   o.x_max = std::clamp(toImageX(b.x_max), x0, x1);
   o.y_min = std::clamp(toImageY(b.y_min), y0, y1);
@@ -99,7 +100,17 @@ std::vector<int> squeezeLeading(std::vector<int> dims, size_t keep) {
   return dims;
 }
 
+/// A shape with a dimension < 1 holds nothing to decode (and would make the decoders index past
+/// the data it has): fits no layout.
+void checkDims(const OutputBlob& b, const std::string& source) {
+  for (int d : b.dims)
+    if (d < 1)
+      fail(source, ": network output of shape ", shapeText(b.dims),
+           " has an empty or negative dimension");
+}
+
 OutputFormat guessOne(const OutputBlob& b, const std::string& source) {
+  checkDims(b, source);
   const std::vector<int> d = b.dims;
   if (d.size() == 4) return OutputFormat::kGrid;
   if (d.size() == 3) return d[1] > d[2] ? OutputFormat::kYoloV5 : OutputFormat::kYoloV8;
@@ -110,6 +121,7 @@ OutputFormat guessOne(const OutputBlob& b, const std::string& source) {
 }
 
 int classesOf(const OutputBlob& b, OutputFormat f, const std::string& source) {
+  checkDims(b, source);
   const std::vector<int>& d = b.dims;
   int c = -1;
   switch (f) {
@@ -179,6 +191,12 @@ std::vector<ScoredBox> decodeOutputs(const std::vector<OutputBlob>& outputs,
   std::vector<ScoredBox> out;
   const int C = layout.num_classes;
   for (const OutputBlob& b : outputs) {
+    // Every index read below lies inside the blob only for a shape of the layout with C classes
+    // and data behind it: checked on every call, the outputs being another forward pass's.
+    if (layout.format != OutputFormat::kAuto && classesOf(b, layout.format, "decodeOutputs") != C)
+      fail("decodeOutputs: network output of shape ", shapeText(b.dims), " does not have the ",
+           C, " classes of the ", outputFormatName(layout.format), " layout");
+    if (!b.data) fail("decodeOutputs: network output of shape ", shapeText(b.dims), " has no data");
     const float* p = b.data;
     const std::vector<int>& d = b.dims;
     switch (layout.format) {
@@ -280,6 +298,23 @@ std::vector<ScoredBox> topKPerClass(std::vector<ScoredBox> boxes, int k) {
     if (count[b.class_id]++ < k) out.push_back(b);
   }
   return out;
+}
+
+std::vector<ScoredBox> postprocessBoxes(std::vector<ScoredBox> boxes, const Letterbox& letterbox,
+                                        const PostprocessConfig& config) {
+  for (ScoredBox& b : boxes) b = letterbox.toImage(b);
+  boxes.erase(std::remove_if(boxes.begin(), boxes.end(),
+                             [](const ScoredBox& b) { return b.width() <= 0 || b.height() <= 0; }),
+              boxes.end());
+  if (boxes.size() > static_cast<size_t>(config.max_candidates)) {
+    std::nth_element(boxes.begin(), boxes.begin() + config.max_candidates, boxes.end(),
+                     [](const ScoredBox& a, const ScoredBox& b) { return a.score > b.score; });
+    boxes.resize(static_cast<size_t>(config.max_candidates));
+  }
+  boxes = nonMaximumSuppression(std::move(boxes), config.nms_threshold, false);
+  if (config.cross_class_nms_threshold < 1.0f)
+    boxes = nonMaximumSuppression(std::move(boxes), config.cross_class_nms_threshold, true);
+  return topKPerClass(std::move(boxes), config.max_boxes_per_class);
 }
 
 }  // namespace drill_pipe_pose::detector

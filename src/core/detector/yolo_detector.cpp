@@ -253,19 +253,12 @@ std::vector<ScoredBox> YoloDetector::detectRaw(const cv::Mat& bgr) {
   const auto t2 = std::chrono::steady_clock::now();
   std::vector<ScoredBox> boxes = decodeOutputs(outs, layout_, config_.input_width,
                                                config_.input_height, config_.confidence_threshold);
-  for (ScoredBox& b : boxes) b = lb.toImage(b);
-  boxes.erase(std::remove_if(boxes.begin(), boxes.end(),
-                             [](const ScoredBox& b) { return b.width() <= 0 || b.height() <= 0; }),
-              boxes.end());
-  if (boxes.size() > static_cast<size_t>(config_.max_candidates)) {
-    std::nth_element(boxes.begin(), boxes.begin() + config_.max_candidates, boxes.end(),
-                     [](const ScoredBox& a, const ScoredBox& b) { return a.score > b.score; });
-    boxes.resize(static_cast<size_t>(config_.max_candidates));
-  }
-  boxes = nonMaximumSuppression(std::move(boxes), config_.nms_threshold, false);
-  if (config_.cross_class_nms_threshold < 1.0f)
-    boxes = nonMaximumSuppression(std::move(boxes), config_.cross_class_nms_threshold, true);
-  boxes = topKPerClass(std::move(boxes), config_.max_boxes_per_class);
+  PostprocessConfig post;
+  post.max_candidates = config_.max_candidates;
+  post.nms_threshold = config_.nms_threshold;
+  post.cross_class_nms_threshold = config_.cross_class_nms_threshold;
+  post.max_boxes_per_class = config_.max_boxes_per_class;
+  boxes = postprocessBoxes(std::move(boxes), lb, post);
   timing_.postprocess_ms = msSince(t2);
   return boxes;
 }

@@ -92,9 +92,11 @@ std::vector<CloudPoint> carve(const std::vector<CloudPoint>& points, EndLabel la
     const Eigen::Vector3f pd = j.R_d * pw + j.t_d;
     if (!(pd.z() > 0.0f)) return false;
     // Rounded in sensor pixels, then shifted: the same pixel with full and cropped depth.
-    const int u = static_cast<int>(std::round(j.dfx * pd.x() / pd.z() + j.dcx)) - j.off_x,
-              v = static_cast<int>(std::round(j.dfy * pd.y() / pd.z() + j.dcy)) - j.off_y;
-    if (u < j.crop[0] || v < j.crop[1] || u >= j.crop[2] || v >= j.crop[3]) return false;
+    // (Checked before the conversion to int: a pixel far off the image, or NaN, is unseen.)
+    const double uf = static_cast<double>(std::round(j.dfx * pd.x() / pd.z() + j.dcx)) - j.off_x,
+                 vf = static_cast<double>(std::round(j.dfy * pd.y() / pd.z() + j.dcy)) - j.off_y;
+    if (!(uf >= j.crop[0] && vf >= j.crop[1] && uf < j.crop[2] && vf < j.crop[3])) return false;
+    const int u = static_cast<int>(uf), v = static_cast<int>(vf);
     const float z = j.depth->depthAt(static_cast<uint32_t>(u), static_cast<uint32_t>(v));
     return z > 0.0f && z < pd.z() - static_cast<float>(config.occlusion_margin);
   };

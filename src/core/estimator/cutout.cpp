@@ -82,10 +82,13 @@ bool depthRectOfBox(const CycleCamera& cam, const DetectionBox& box, double marg
   if (n == 0) return false;
   const int W = static_cast<int>(cam.depth.imageWidth()),
             H = static_cast<int>(cam.depth.imageHeight());
-  (*rect)[0] = std::max(0, static_cast<int>(std::floor(u_min)) - 1);
-  (*rect)[1] = std::max(0, static_cast<int>(std::floor(v_min)) - 1);
-  (*rect)[2] = std::min(W, static_cast<int>(std::ceil(u_max)) + 2);
-  (*rect)[3] = std::min(H, static_cast<int>(std::ceil(v_max)) + 2);
+  // Bounds far outside the image (a box 1e38 px wide, a tiny focal length) become ints without
+  // overflow: clamped to +-1e9 px first, beyond any image.
+  auto px = [](double x) { return static_cast<int>(std::clamp(x, -1e9, 1e9)); };
+  (*rect)[0] = std::max(0, px(std::floor(u_min)) - 1);
+  (*rect)[1] = std::max(0, px(std::floor(v_min)) - 1);
+  (*rect)[2] = std::min(W, px(std::ceil(u_max)) + 2);
+  (*rect)[3] = std::min(H, px(std::ceil(v_max)) + 2);
   return (*rect)[0] < (*rect)[2] && (*rect)[1] < (*rect)[3];
 }
 

@@ -42,9 +42,11 @@ size_t seenThroughPixels(const std::vector<OrientedPoint>& samples,
       const float range = p.norm();
       const float cos_inc = -(R * s.n).dot(p) / range;
       if (cos_inc <= 0.0f) continue;  // faces away from the camera
-      const int u = static_cast<int>(std::floor(fx * p.x() / p.z() + cx + 0.5f)) - off_x;
-      const int v = static_cast<int>(std::floor(fy * p.y() / p.z() + cy + 0.5f)) - off_y;
-      if (u < u0 || v < v0 || u >= u1 || v >= v1) continue;
+      // (Checked before the conversion to int: a pixel far off the image, or NaN, is unseen.)
+      const double uf = static_cast<double>(std::floor(fx * p.x() / p.z() + cx + 0.5f)) - off_x,
+                   vf = static_cast<double>(std::floor(fy * p.y() / p.z() + cy + 0.5f)) - off_y;
+      if (!(uf >= u0 && vf >= v0 && uf < u1 && vf < v1)) continue;
+      const int u = static_cast<int>(uf), v = static_cast<int>(vf);
       const uint32_t key = static_cast<uint32_t>(v) * W + u;
       if (predicted) pred.push_back(key);
       // Grazing samples are not judged: their depth noise is huge and the silhouette's mixed

@@ -81,10 +81,12 @@ void ThesisBaseline::process(const std::vector<CycleCamera>& cams, CycleResult* 
       const int l = static_cast<int>(b.label);
       if (std::find(cam_names[l].begin(), cam_names[l].end(), cam.name) == cam_names[l].end())
         cam_names[l].push_back(cam.name);
-      const int u0 = static_cast<int>(std::floor(to_du(b.x_min)));
-      const int u1 = static_cast<int>(std::ceil(to_du(b.x_max))) + 1;
-      const int v0 = static_cast<int>(std::floor(to_dv(b.y_min)));
-      const int v1 = static_cast<int>(std::ceil(to_dv(b.y_max))) + 1;
+      // Clamped to +-1e9 px before the conversion to int (a box far off the image is no int).
+      auto px = [](double x) { return static_cast<int>(std::clamp(x, -1e9, 1e9)); };
+      const int u0 = px(std::floor(to_du(b.x_min)));
+      const int u1 = px(std::ceil(to_du(b.x_max))) + 1;
+      const int v0 = px(std::floor(to_dv(b.y_min)));
+      const int v1 = px(std::ceil(to_dv(b.y_max))) + 1;
       proj.forEachPoint(cam.image, u0, v0, u1, v1, [&](int, int, const Eigen::Vector3f& p) {
         if (p.z() < cfg.cutout.min_range || p.z() > cfg.cutout.max_range) return;
         const Eigen::Vector3f w = T * p;

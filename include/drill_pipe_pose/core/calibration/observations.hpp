@@ -20,6 +20,10 @@
 
 namespace drill_pipe_pose::calibration {
 
+/// Most squares along a side of a target (validateTarget): a printed board has tens; more is a
+/// mistake in the file, and their count must stay an int when multiplied.
+constexpr int kMaxTargetSquares = 1000;
+
 /// The printed target (core/calibration/target.hpp builds its corner positions and detects it).
 struct TargetGeometry {
   enum class Type { kCharuco, kChessboard };

@@ -14,9 +14,9 @@
 
 namespace drill_pipe_pose::calibration {
 
-/// Throws InputError naming `where` and the field for an impossible geometry (non-positive or
-/// too few squares, marker not smaller than the square, unknown dictionary, more markers than
-/// the dictionary holds).
+/// Throws InputError naming `where` and the field for an impossible geometry (non-positive, too
+/// few or more than kMaxTargetSquares squares, marker not smaller than the square, unknown
+/// dictionary, more markers than the dictionary holds).
 void validateTarget(const TargetGeometry& target, const std::string& where);
 
 /// Corner positions in the target frame, indexed by corner id (CornerObservation::id).

@@ -86,7 +86,7 @@ struct OutputBlob {
 /// The format and class count a set of outputs implies, for `input` of input_w x input_h.
 /// kAuto input: 4-D outputs -> kGrid; 3-D [1, N, K] with N > K -> kYoloV5; [1, K, N] with
 /// K < N -> kYoloV8; 2-D -> kDarknet. Throws InputError naming `source` when the shapes fit no
-/// format or disagree between outputs.
+/// format (a dimension < 1 fits none) or disagree between outputs.
 struct OutputLayout {
   OutputFormat format = OutputFormat::kGrid;
   int num_classes = 0;
@@ -96,6 +96,8 @@ OutputLayout guessOutputLayout(const std::vector<OutputBlob>& outputs, OutputFor
 
 /// Decodes every candidate whose score (objectness x class probability, for each class) is at
 /// least `score_threshold` into boxes in INPUT pixels. One candidate can yield several classes.
+/// Throws InputError when an output's shape does not fit `layout` (its format with
+/// layout.num_classes classes, every dimension >= 1) or it has no data.
 std::vector<ScoredBox> decodeOutputs(const std::vector<OutputBlob>& outputs,
                                      const OutputLayout& layout, int input_width, int input_height,
                                      float score_threshold);
@@ -108,5 +110,19 @@ std::vector<ScoredBox> nonMaximumSuppression(std::vector<ScoredBox> boxes, float
 
 /// At most `k` boxes per class (the highest scores), k <= 0: no limit. Sorted by score.
 std::vector<ScoredBox> topKPerClass(std::vector<ScoredBox> boxes, int k);
+
+/// The detector's post-processing of decoded boxes (YoloDetector::detectRaw; YoloConfig holds
+/// the same fields): each box to the full image through `letterbox` (clipped to the roi), boxes
+/// left empty dropped, at most max_candidates (the highest scores), NMS per class, then across
+/// classes when cross_class_nms_threshold < 1, at most max_boxes_per_class per class (<= 0: no
+/// limit). Sorted by descending score.
+struct PostprocessConfig {
+  int max_candidates = 1000;
+  float nms_threshold = 0.45f;
+  float cross_class_nms_threshold = 0.7f;
+  int max_boxes_per_class = 1;
+};
+std::vector<ScoredBox> postprocessBoxes(std::vector<ScoredBox> boxes, const Letterbox& letterbox,
+                                        const PostprocessConfig& config);
 
 }  // namespace drill_pipe_pose::detector
