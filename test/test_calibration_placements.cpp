@@ -69,9 +69,11 @@ TEST(CalibrationPlacements, MovingCornersLostCornersAndOrderDoNotMatter) {
   std::reverse(frames.begin(), frames.end());  // any input order
   const PlacementGroups g = groupPlacements(frames);
   EXPECT_EQ(g.count, 3);
-  for (size_t i = 0; i < frames.size(); ++i)
-    if (frames[i].camera == "cam_a" && std::abs(frames[i].stamp - 1.05) < 1e-9)
+  for (size_t i = 0; i < frames.size(); ++i) {
+    if (frames[i].camera == "cam_a" && std::abs(frames[i].stamp - 1.05) < 1e-9) {
       EXPECT_EQ(g.placement[i], -1);
+    }
+  }
   PlacementOptions coarse;
   coarse.max_corner_motion_px = 1.0;
   EXPECT_EQ(groupPlacements(frames, coarse).count, 3);

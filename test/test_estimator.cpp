@@ -534,7 +534,7 @@ TEST(Instances, ChoiceByMeanCostWithIncumbentAmbiguityAndAbsentBetterOne) {
   size_t near_a = 100;  // cut-out points at A's place
   auto near = [&](const Eigen::Vector3d& o, double) { return (o - a).norm() < 0.1 ? near_a : 0; };
   auto fits = [&](double cost_a, double cost_b, bool a_fits = true) {
-    return std::vector<InstanceFit>{{a_fits, a, cost_a}, {true, b, cost_b}};
+    return std::vector<InstanceFit>{{a_fits, a, cost_a, {}}, {true, b, cost_b, {}}};
   };
   std::vector<InstanceMemory> memory;
   int64_t t = 0;

@@ -376,8 +376,11 @@ TEST(PipeTypes, ResolvesTheStartTypeWithOverridesAndTheCandidates) {
   EXPECT_DOUBLE_EQ(c.dims.tool_joint_od, cat.at("5.5in_FH_7.0od").dims.tool_joint_od);
   EXPECT_DOUBLE_EQ(c.dims.box_tong_length, 0.25);
   ASSERT_EQ(c.candidates.size(), cat.types.size());  // [all]
-  for (const PipeCandidate& k : c.candidates)
-    if (k.name == c.pipe_type) EXPECT_DOUBLE_EQ(k.dims.box_tong_length, 0.25);
+  for (const PipeCandidate& k : c.candidates) {
+    if (k.name == c.pipe_type) {
+      EXPECT_DOUBLE_EQ(k.dims.box_tong_length, 0.25);
+    }
+  }
   EstimatorConfig two;
   two.pipe_types = {"5in_NC50_6.625od", "4.5in_NC46_6.25od"};
   resolvePipeTypes(&two, cat);
