@@ -177,13 +177,6 @@ class EstimatorReplay(unittest.TestCase):
         self.assertGreater(len(self.ends), 50, "the node stopped on bad input from cam5")
 
     def test_5_node_and_bench_publish_the_same(self):
-        del self.ends[:]
-        del self.status[:]
-        # Quarter speed, so that the wall-clock max_wait never closes a cycle early.
-        # -d 1: every camera's subscription is connected before the first frame. A camera whose
-        # first frames a loaded machine loses starts the node's tracks on other input, and every
-        # later cycle may then differ from the bench's by millimetres (see below).
-        self.play(self.bag, extra=("-r", "0.25", "-d", "1"))
         share = subprocess.run(["rospack", "find", PKG], capture_output=True, text=True).stdout.strip()
         cycles_csv = os.path.join(self.tmp, "bench_cycles.csv")
         # The node's configuration in estimator_replay.test.
@@ -196,17 +189,30 @@ class EstimatorReplay(unittest.TestCase):
         for r in csv.DictReader(open(cycles_csv)):
             c = bench.setdefault(int(r["stamp_ns"]), {"cams": frozenset(r["cameras"].split("+"))})
             c[r["end"]] = (int(r["valid"]), [float(r[k]) for k in ("x", "y", "z", "qx", "qy", "qz", "qw")])
-        node_cams = {m.header.stamp.to_nsec(): frozenset(m.cameras_used) for m in self.status}
         # Tracks, type trials and per-track averages carry state from cycle to cycle, so the node
         # and the bench agree exactly only while they have fused the same frames. Compare every
-        # cycle up to the first one the node fused differently (a frame lost or late on a loaded
-        # machine), and say where that was.
-        diverged, diverged_at = None, None
-        for stamp in sorted(bench):
-            if node_cams.get(stamp) != bench[stamp]["cams"]:
-                diverged_at = stamp
-                diverged = (f"cycle {stamp}: node fused {sorted(node_cams.get(stamp, []))}, "
-                            f"bench {sorted(bench[stamp]['cams'])}")
+        # cycle up to the first one the node fused differently, and say where that was. A frame
+        # lost at the start is the transport's, not the estimator's: the node subscribes afresh
+        # to a camera silent since the last test (a restarted sensor node, see the node), and a
+        # frame sent while that subscription connects is lost. Such a replay is played again
+        # (at most 3 times); a difference in what the node publishes from the same frames never is.
+        for attempt in range(1, 4):
+            del self.ends[:]
+            del self.status[:]
+            # Quarter speed, so that the wall-clock max_wait never closes a cycle early; -d 1:
+            # the subscriptions connect before the first frame.
+            self.play(self.bag, extra=("-r", "0.25", "-d", "1"))
+            node_cams = {m.header.stamp.to_nsec(): frozenset(m.cameras_used) for m in self.status}
+            diverged, diverged_at = None, None
+            for stamp in sorted(bench):
+                if node_cams.get(stamp) != bench[stamp]["cams"]:
+                    diverged_at = stamp
+                    diverged = (f"cycle {stamp}: node fused {sorted(node_cams.get(stamp, []))}, "
+                                f"bench {sorted(bench[stamp]['cams'])}")
+                    break
+            early = diverged_at is not None and sum(1 for s in bench if s < diverged_at) <= 60
+            print(f"node/bench replay {attempt}: input diverged at {diverged}")
+            if not early:
                 break
         node_ends = {m.header.stamp.to_nsec(): m for m in self.ends}
         compared, differ = 0, []
