@@ -118,8 +118,8 @@ TEST(FrameAssembly, RenderedFrameGetsTheModelsBoxesAndTheNodesCrop) {
   EXPECT_EQ(cropped.depth_info.roi.y_offset, expected.depth_info.roi.y_offset);
   EXPECT_EQ(cropped.depth_info.roi.width, expected.depth_info.roi.width);
   EXPECT_EQ(cropped.depth_info.roi.height, expected.depth_info.roi.height);
-  EXPECT_EQ(cropped.depth.width(), expected.depth.width());
-  EXPECT_EQ(cropped.depth.height(), expected.depth.height());
+  EXPECT_EQ(cropped.depth.width, expected.depth.width);
+  EXPECT_EQ(cropped.depth.height, expected.depth.height);
 
   // No colour <- depth transform (the node before TF arrives): the depth stays full.
   const SensorFrameData no_tf =

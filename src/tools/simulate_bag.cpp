@@ -36,9 +36,10 @@
 // in memory, each frame goes as kinect2_bridge-style messages through the pipe_detector node's
 // frame assembly (ros/detector_frames.hpp, the same code as the node and detect_bag, with the
 // node's parameters and defaults; --detector-param KEY=VALUE sets any of them, --crop sets
-// crop_depth) and only its SensorFrames are written: a 10 s six-camera scene stays a bag of a few
-// MB with --crop (about 100 MB without), where the same scene with --color is about 3 GB (QHD colour
-// ~1.5 MB per frame per camera, LZ4) before detect_bag could read it. The SensorFrames are the ones
+// crop_depth) and only its SensorFrames are written: a 10 s six-camera scene stays a bag of about
+// 40 MB with --crop, where the same scene with --color is about 4 GB (0.42 GB per second of six
+// cameras, LZ4; measured with thesis_vertical) before detect_bag could read it: the one-pass route
+// keeps the bench far below 2 GB of disk. The SensorFrames are the ones
 // `simulate_bag --color --no-detection` followed by `detect_bag` gives (a test checks it); the
 // simulated detector is off, the depth frames are those of the same seed without it.
 // Exit status 0; 1 on bad input files or an unwritable bag; 2 on a bad command line.
