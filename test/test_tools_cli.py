@@ -8,7 +8,8 @@
 
 Run by ctest (CMakeLists.txt): test_tools_cli.py --bin-dir DEVEL/lib/drill_pipe_pose --xml OUT.xml
 The programs are only asked to parse their command line, except render_board, which renders two
-small frames (test_render_board_writes_frames).
+small frames (test_render_board_writes_frames), and detect_bag, which runs on a tiny colour bag of
+simulate_bag (test_detect_bag_on_a_colour_bag).
 """
 import argparse
 import os
@@ -31,6 +32,7 @@ OPTIONS = {
                         "--skip-camera", "--no-temporal", "--no-tracking", "--threads",
                         "--vote-fraction", "--box-reach", "--confirmations",
                         "--no-silhouette-points", "--incidence-noise"],
+    "detect_bag": ["--out", "--crop", "--model", "--config", "--param", "--camera", "--quiet"],
     "detect_target": ["--target", "--squares", "--square", "--marker", "--dictionary"],
     "detector_eval": ["--model", "--darknet-cfg", "--data", "--split", "--input", "--roi", "--conf",
                       "--max-per-class", "--cross-class-nms", "--labels", "--threads", "--timing",
@@ -48,7 +50,7 @@ OPTIONS = {
     "rig_info": ["--target", "--zone"],
     "simulate_bag": ["--scene", "--out", "--rig", "--duration", "--start", "--profile", "--seed",
                      "--no-detection", "--color", "--crop", "--sensors", "--quiet", "--effect-off",
-                     "--hd-mono", "--fps"],
+                     "--hd-mono", "--fps", "--detector-model", "--detector-param"],
     "simulate_calibration": ["--rig", "--scene", "--profile", "--seed", "--out", "--true-rig",
                              "--frames-per-placement", "--sensors"],
 }
@@ -102,6 +104,8 @@ class ToolsCli(unittest.TestCase):
         cases = {
             "bench_estimator": ("--threads", [f, "--threads", "0"]),
             "calibrate_rig": ("--min-placements", ["--observations", f, "--min-placements", "0"]),
+            "detect_bag": ("--param", [f, "--out", os.path.join(d, "o.bag"), "--param",
+                                       "confidence_threshold=0"]),
             "detect_target": ("--square", [f, "--square", "0"]),
             "detector_eval": ("--conf", ["--model", f, "--data", d, "--conf", "2"]),
             "evaluate": ("--rate", [f, "--rate", "abc"]),
@@ -134,6 +138,10 @@ class ToolsCli(unittest.TestCase):
             ("detector_eval", "--input", ["--model", f, "--timing", "320x320", "--input", "4x"]),
             ("detector_eval", "--roi", ["--model", f, "--timing", "320x320", "--roi", "1,2,3"]),
             ("mesh_to_cloud", "--seed", [f, "o.pcd", "--seed", "-3"]),
+            ("detect_bag", "--param", [f, "--out", "o.bag", "--param", "no_such_key=1"]),
+            ("simulate_bag", "--detector-param", ["--scene", f, "--out", "x.bag",
+                                                  "--detector-model", f, "--detector-param",
+                                                  "nms_threshold=x"]),
             ("rig_info", "--target", [f, "--target", "1", "2"]),
             ("detect_target", "--target", [f, "--target", "circles"]),
             ("detect_target", "--squares", [f, "--squares", "5by7"]),
@@ -180,6 +188,77 @@ class ToolsCli(unittest.TestCase):
         r = run("render_board", "--poses", poses, "--out", out)
         self.assertEqual(r.returncode, 1, r.stdout + r.stderr)
         self.assertIn("poses.csv:2", r.stderr)
+
+    def test_detect_bag_on_a_colour_bag(self):
+        """detect_bag on 0.1 s of six cameras (simulate_bag --color --no-detection, seed 7):
+        one SensorFrame per colour frame, on <cam>/sensor_frame, stamped with the colour capture
+        time, with boxes and cropped depth; TF and ground truth copied; the same frames as
+        simulate_bag --detector-model in one pass. A bag without a camera's depth info: exit 1,
+        naming the camera and the topic."""
+        import rosbag  # noqa: E402 (ROS Python, only this test needs it)
+        src = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
+        scene = os.path.join(src, "config", "scenes", "thesis_vertical.yaml")
+        model = os.path.join(src, "models", "detector", "pipe_yolo.onnx")
+        colour = os.path.join(self.tmp, "colour.bag")
+        r = run("simulate_bag", "--scene", scene, "--out", colour, "--duration", "0.1",
+                "--seed", "7", "--color", "--no-detection", "--quiet")
+        self.assertEqual(r.returncode, 0, r.stdout + r.stderr)
+        out = os.path.join(self.tmp, "detected.bag")
+        r = run("detect_bag", colour, "--out", out, "--crop", "--model", model, "--quiet")
+        self.assertEqual(r.returncode, 0, r.stdout + r.stderr)
+        self.assertIn("wrote", r.stdout)
+
+        def frames(path):
+            got = {}
+            with rosbag.Bag(path) as b:
+                for topic, msg, _ in b.read_messages():
+                    if topic.endswith("/sensor_frame"):
+                        got[(topic, msg.header.stamp.to_nsec())] = msg
+            return got
+
+        with rosbag.Bag(colour) as b:
+            stamps = {(t, m.header.stamp.to_nsec()) for t, m, _ in
+                      b.read_messages() if t.endswith("/qhd/image_color_rect")}
+        got = frames(out)
+        want = {(t.replace("/qhd/image_color_rect", "/sensor_frame"), s) for t, s in stamps}
+        # ApproximateTime may hold back each camera's last set at the bag's end.
+        self.assertTrue(set(got) <= want, sorted(set(got) - want))
+        self.assertGreaterEqual(len(got), len(want) - 6)
+        self.assertGreater(sum(len(m.boxes) for m in got.values()), len(got) // 2)
+        for (topic, _), m in got.items():
+            self.assertEqual(topic, "/" + m.camera + "/sensor_frame")
+            if m.boxes:
+                self.assertLess(m.depth.width * m.depth.height, 512 * 424)  # cropped
+        with rosbag.Bag(out) as b:
+            topics = set(b.get_type_and_topic_info().topics)
+        self.assertIn("/tf_static", topics)
+        self.assertTrue(any(t.startswith("/ground_truth/") for t in topics), topics)
+        self.assertFalse(any("/qhd/" in t or "/sd/" in t for t in topics), topics)
+
+        one_pass = os.path.join(self.tmp, "one_pass.bag")
+        r = run("simulate_bag", "--scene", scene, "--out", one_pass, "--duration", "0.1",
+                "--seed", "7", "--crop", "--detector-model", model, "--quiet")
+        self.assertEqual(r.returncode, 0, r.stdout + r.stderr)
+        same = frames(one_pass)
+        for key, m in got.items():
+            self.assertIn(key, same)
+            self.assertEqual([(b.label, b.x_min, b.y_max) for b in m.boxes],
+                             [(b.label, b.x_min, b.y_max) for b in same[key].boxes], key)
+            self.assertEqual(m.depth.data, same[key].depth.data, key)
+
+        broken = os.path.join(self.tmp, "broken.bag")
+        with rosbag.Bag(colour) as b, rosbag.Bag(broken, "w") as w:
+            for topic, msg, t in b.read_messages(raw=True):
+                if topic != "/cam2/sd/camera_info":
+                    w.write(topic, msg, t, raw=True)
+        r = run("detect_bag", broken, "--out", os.path.join(self.tmp, "x.bag"), "--quiet")
+        self.assertEqual(r.returncode, 1, r.stdout + r.stderr)
+        self.assertIn("camera cam2", r.stderr)
+        self.assertIn("/cam2/sd/camera_info", r.stderr)
+        r = run("detect_bag", colour, "--out", os.path.join(self.tmp, "x.bag"), "--model",
+                self.file)
+        self.assertEqual(r.returncode, 1, r.stdout + r.stderr)
+        self.assertIn(self.file, r.stderr)
 
 
 def main():

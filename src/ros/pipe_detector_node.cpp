@@ -20,12 +20,13 @@
 
 #include <optional>
 
-#include "drill_pipe_pose/core/depth_crop.hpp"
 #include "drill_pipe_pose/core/detector/detector_node_params.hpp"
+#include "drill_pipe_pose/core/detector/frame_assembly.hpp"
 #include "drill_pipe_pose/core/detector/yolo_detector.hpp"
 #include "drill_pipe_pose/core/errors.hpp"
 #include "drill_pipe_pose/core/frame_sync.hpp"
 #include "drill_pipe_pose/ros/conversions.hpp"
+#include "drill_pipe_pose/ros/detector_frames.hpp"
 #include "drill_pipe_pose/ros/param_loader.hpp"
 
 namespace drill_pipe_pose {
@@ -47,31 +48,12 @@ class PipeDetectorNode {
     if (camera_.empty())
       fail("parameter ", pnh.resolveName("camera"),
            " is missing: the sensor node's name <cam> (topics <cam>/qhd/image_color_rect, ...)");
-    detector::DetectorConfig c = p.detector;
-    if (c.model.empty())
-      c.model = ros::package::getPath("drill_pipe_pose") + "/models/detector/pipe_yolo.onnx";
-    if (!p.labels_file.empty()) c.labels = detector::readLabelsFile(p.labels_file);
-    const std::vector<double>& roi = p.roi;
     roi_param_ = "parameter " + pnh.resolveName("roi");
-    if (!roi.empty()) {
-      if (roi.size() != 4)
-        fail(roi_param_,
-             ": expected [x, y, width, height] in colour pixels (or [] for the whole "
-             "image), got ",
-             roi.size(), " numbers");
-      for (size_t i = 0; i < 4; ++i)
-        if (!(roi[i] >= 0.0) || roi[i] != std::floor(roi[i]))
-          fail(roi_param_, "[", i, "] = ", roi[i], ": must be a non-negative integer");
-      c.roi.x_offset = static_cast<uint32_t>(roi[0]);
-      c.roi.y_offset = static_cast<uint32_t>(roi[1]);
-      c.roi.width = static_cast<uint32_t>(roi[2]);
-      c.roi.height = static_cast<uint32_t>(roi[3]);
-      if (c.roi.width == 0 || c.roi.height == 0)
-        fail(roi_param_, " = [", roi[0], ", ", roi[1], ", ", roi[2], ", ", roi[3],
-             "]: width and height must be > 0");
-    }
-    crop_depth_ = p.crop_depth;
-    crop_ = p.crop;
+    const detector::DetectorConfig c = detectorConfigFromParams(
+        p, ros::package::getPath("drill_pipe_pose") + "/models/detector/pipe_yolo.onnx",
+        roi_param_);
+    options_.crop_depth = p.crop_depth;
+    options_.crop = p.crop;
     const double slop = p.sync_slop;
     max_rate_ = p.max_rate;
     tf_timeout_ = ros::Duration(p.tf_timeout);
@@ -86,6 +68,7 @@ class PipeDetectorNode {
     color_info_topic_ = nh_.resolveName(conventions::colorInfoTopic(camera_));
     depth_topic_ = nh_.resolveName(conventions::depthImageTopic(camera_));
     depth_info_topic_ = nh_.resolveName(conventions::depthInfoTopic(camera_));
+    sources_ = {color_topic_, color_info_topic_, depth_topic_, depth_info_topic_, roi_param_};
     pub_ = nh_.advertise<SensorFrame>(conventions::sensorFrameTopic(camera_), 5);
     debug_pub_ = pnh_.advertise<Image>("debug_image", 1);
     color_sub_.subscribe(nh_, color_topic_, queue);
@@ -111,7 +94,7 @@ class PipeDetectorNode {
                           " " + std::to_string(c.roi.width) + "x" + std::to_string(c.roi.height))
                              .c_str(),
         c.confidence_threshold, c.nms_threshold, c.cross_class_nms_threshold, c.max_boxes_per_class,
-        crop_depth_ ? "cropped to the boxes" : "full", slop,
+        options_.crop_depth ? "cropped to the boxes" : "full", slop,
         max_rate_ > 0 ? (std::to_string(max_rate_) + " Hz").c_str() : "unlimited", c.num_threads,
         color_topic_.c_str(), color_info_topic_.c_str(), depth_topic_.c_str(),
         depth_info_topic_.c_str(), pub_.getTopic().c_str());
@@ -139,52 +122,27 @@ class PipeDetectorNode {
     }
   }
 
+  /// The frame assembly shared with detect_bag (ros/detector_frames.hpp), then publishing.
   void process(const ImageConstPtr& color, const CameraInfoConstPtr& color_info,
                const ImageConstPtr& depth, const CameraInfoConstPtr& depth_info) {
-    detector::checkSameCamera(camera_, color->header.frame_id, color_topic_, depth->header.frame_id,
-                              depth_topic_);
-    if (color_info->header.frame_id != color->header.frame_id)
-      fail(color_info_topic_, ": frame_id '", color_info->header.frame_id, "' differs from ",
-           color_topic_, "'s '", color->header.frame_id, "'");
-    if (depth_info->header.frame_id != depth->header.frame_id)
-      fail(depth_info_topic_, ": frame_id '", depth_info->header.frame_id, "' differs from ",
-           depth_topic_, "'s '", depth->header.frame_id, "'");
-    SensorFrameData f;
-    f.camera = camera_;
-    f.stamp_ns = toNs(color->header.stamp);
-    f.frame_id = color->header.frame_id;
-    f.color_info = fromMsg(*color_info);
-    f.depth_info = fromMsg(*depth_info);
-    f.depth_stamp_ns = toNs(depth->header.stamp);
-    f.depth_frame_id = depth->header.frame_id;
-    const PinholeCamera color_cam = PinholeCamera::fromCameraInfo(f.color_info, color_info_topic_);
-    if (color->width != color_cam.imageWidth() || color->height != color_cam.imageHeight())
-      fail(color_topic_, ": image is ", color->width, " x ", color->height, " px, ",
-           color_info_topic_, " says ", color_cam.imageWidth(), " x ", color_cam.imageHeight());
-    f.depth = depthFromMsg(depth, depth_topic_);
-    validateDepthImage(f.depth, PinholeCamera::fromCameraInfo(f.depth_info, depth_info_topic_),
-                       depth_topic_);
-    const cv::Mat bgr =
-        detector::colorImageToBgr(color->encoding, color->width, color->height, color->step,
-                                  color->data.data(), color->data.size(), color_topic_);
-    detector::checkRoi(detector_->config().roi, color->width, color->height, roi_param_);
-    f.boxes = detector_->detect(bgr);
+    std::optional<Eigen::Isometry3d> T;
+    if (options_.crop_depth) {
+      T = colorFromDepth(color->header.frame_id, depth->header.frame_id);
+      if (!T)
+        ROS_WARN_THROTTLE(5.0,
+                          "pipe_detector %s: no TF %s <- %s yet: sending the full depth "
+                          "image (throttled, 5 s)",
+                          camera_.c_str(), color->header.frame_id.c_str(),
+                          depth->header.frame_id.c_str());
+    }
+    cv::Mat bgr;
+    const SensorFrameData f =
+        detectorFrame(*detector_, camera_, color, *color_info, depth, *depth_info,
+                      T ? &*T : nullptr, options_, sources_, &bgr);
     const detector::DetectorTiming& t = detector_->lastTiming();
     ROS_DEBUG("pipe_detector %s: %zu boxes, %.1f ms (pre %.1f, net %.1f, post %.1f)",
               camera_.c_str(), f.boxes.size(), t.total(), t.preprocess_ms, t.inference_ms,
               t.postprocess_ms);
-
-    if (crop_depth_) {
-      const std::optional<Eigen::Isometry3d> T = colorFromDepth(f.frame_id, f.depth_frame_id);
-      if (T) {
-        f = cropDepthToBoxes(f, *T, crop_);
-      } else {
-        ROS_WARN_THROTTLE(5.0,
-                          "pipe_detector %s: no TF %s <- %s yet: sending the full depth "
-                          "image (throttled, 5 s)",
-                          camera_.c_str(), f.frame_id.c_str(), f.depth_frame_id.c_str());
-      }
-    }
     pub_.publish(toMsg(f));
 
     if (debug_pub_.getNumSubscribers() > 0) {
@@ -224,8 +182,8 @@ class PipeDetectorNode {
   std::string camera_, roi_param_;
   std::string color_topic_, color_info_topic_, depth_topic_, depth_info_topic_;
   std::optional<detector::YoloDetector> detector_;
-  bool crop_depth_ = false;
-  DepthCropConfig crop_;
+  detector::FrameAssemblyOptions options_;
+  detector::FrameSources sources_;
   double max_rate_ = 0.0;
   ros::Time last_stamp_;
   ros::Duration tf_timeout_;

@@ -5,7 +5,7 @@
 //       [--seed 1] [--no-detection] [--color] [--crop] [--sensors config/sensors] [--quiet]
 //       [--effect-off EFFECT]... [--model fitted|before-fit|additive] [--true-rig FILE]
 //       [--hd-mono] [--fps N]
-//       [--published-rig FILE]
+//       [--published-rig FILE] [--detector-model FILE [--detector-param KEY=VALUE]...]
 //
 // --crop sends each SensorFrame's depth cropped to its boxes' frustum (roi), as a bandwidth-saving
 // sensor node does: bags are ~100x smaller and the estimator's poses are the same.
@@ -32,6 +32,16 @@
 // as before they existed.
 // --published-rig puts another rig file's world -> <cam>_link into /tf_static (a calibration's
 // result: the cameras render from their true poses and the estimator fuses with the calibrated).
+// --detector-model runs the real detector in the loop in one pass (issue 22): colour is rendered
+// in memory, each frame goes as kinect2_bridge-style messages through the pipe_detector node's
+// frame assembly (ros/detector_frames.hpp, the same code as the node and detect_bag, with the
+// node's parameters and defaults; --detector-param KEY=VALUE sets any of them, --crop sets
+// crop_depth) and only its SensorFrames are written: a 10 s six-camera scene stays a bag of about
+// 40 MB with --crop, where the same scene with --color is about 4 GB (0.42 GB per second of six
+// cameras, LZ4; measured with thesis_vertical) before detect_bag could read it: the one-pass route
+// keeps the bench far below 2 GB of disk. The SensorFrames are the ones
+// `simulate_bag --color --no-detection` followed by `detect_bag` gives (a test checks it); the
+// simulated detector is off, the depth frames are those of the same seed without it.
 // Exit status 0; 1 on bad input files or an unwritable bag; 2 on a bad command line.
 #include <drill_pipe_pose/SensorFrame.h>
 #include <ros/package.h>
@@ -50,6 +60,7 @@
 #include "drill_pipe_pose/core/errors.hpp"
 #include "drill_pipe_pose/core/rig_calibration.hpp"
 #include "drill_pipe_pose/ros/conversions.hpp"
+#include "drill_pipe_pose/ros/detector_frames.hpp"
 #include "drill_pipe_pose/ros/sim_messages.hpp"
 #include "sim_cli.hpp"
 
@@ -69,8 +80,9 @@ void progress(double done, double total, double rate, bool quiet) {
 /// The rig's static TF at scenario time `start` [s], latched like
 /// tf2_ros::StaticTransformBroadcaster's; world -> <cam>_link from `published` when given (a
 /// calibrated rig file: what rig_tf_publisher would send), else the simulator's published poses.
-void writeStaticTf(const sim::RigSimulator& sim, double start, const RigCalibration* published,
-                   rosbag::Bag* bag) {
+/// Returns the message written.
+tf2_msgs::TFMessage writeStaticTf(const sim::RigSimulator& sim, double start,
+                                  const RigCalibration* published, rosbag::Bag* bag) {
   tf2_msgs::TFMessage tf_static;
   tf_static.transforms = simStaticTransforms(sim);
   for (size_t i = 0; published && i < sim.numCameras(); ++i) {
@@ -89,10 +101,14 @@ void writeStaticTf(const sim::RigSimulator& sim, double start, const RigCalibrat
   (*latched)["callerid"] = "/simulate_bag";
   (*latched)["latching"] = "1";
   bag->write("/tf_static", fromNs(sim.stampNs(start)), tf_static, latched);
+  return tf_static;
 }
 
 struct FrameOptions {
   bool crop = false;     ///< SensorFrames' depth cropped to their boxes' frustum
+  bool write_color = false;  ///< the kinect2_bridge-style colour and depth topics too
+  /// With a detector: the SensorFrames are the pipe_detector node's on the rendered colour.
+  OfflineDetector* detector = nullptr;
   bool quiet = false;    ///< no progress bar
   bool hd_mono = false;  ///< the calibration's topics instead of SensorFrames
   uint64_t every = 1;    ///< keep every k-th capture of each camera
@@ -105,6 +121,26 @@ std::vector<sim::Capture> keptCaptures(const sim::RigSimulator& sim, double star
   for (const sim::Capture& c : sim.captures(start, start + duration))
     if (c.frame_index % every == 0) out.push_back(c);
   return out;
+}
+
+/// The pipe_detector node's SensorFrame for a rendered frame: the kinect2_bridge-style messages
+/// that --color writes, through the same frame assembly as detect_bag (so that both give the same
+/// frames); nothing when the detector's max_rate skips the frame.
+std::optional<SensorFrameData> detectRendered(const sim::RigSimulator& sim, size_t camera,
+                                              const sim::RigSimulator::Frame& frame,
+                                              OfflineDetector* detector) {
+  KinectTopics k = simKinectTopics(sim, camera, frame);
+  const std::string& cam = sim.cameraName(camera);
+  sensor_msgs::ImagePtr color, depth;
+  const sensor_msgs::CameraInfo *color_info = nullptr, *depth_info = nullptr;
+  for (auto& [topic, img] : k.images)
+    (topic == conventions::colorImageTopic(cam) ? color : depth) =
+        boost::make_shared<sensor_msgs::Image>(std::move(img));
+  for (const auto& [topic, info] : k.infos)
+    (topic == conventions::colorInfoTopic(cam) ? color_info : depth_info) = &info;
+  if (!color || !depth || !color_info || !depth_info)
+    fail("camera ", cam, ": the rendered frame has no colour image (internal error)");
+  return detector->process(cam, color, *color_info, depth, *depth_info);
 }
 
 /// Renders the captures in [start, start + duration) into the bag (SensorFrames, cropped with
@@ -124,13 +160,16 @@ size_t writeFrames(sim::RigSimulator& sim, double start, double duration, const 
       const KinectTopics k = simCalibrationTopics(sim, c.camera, frame);
       for (const auto& [topic, img] : k.images) bag->write("/" + topic, stamp, img);
       for (const auto& [topic, info] : k.infos) bag->write("/" + topic, stamp, info);
+    } else if (o.detector) {
+      if (const auto sf = detectRendered(sim, c.camera, frame, o.detector))
+        bag->write("/" + conventions::sensorFrameTopic(cam), stamp, toMsg(*sf));
     } else {
       const SensorFrameData& sf =
           o.crop ? cropDepthToBoxes(frame.sensor_frame, sim.T_link_depth(c.camera))
                  : frame.sensor_frame;
       bag->write("/" + conventions::sensorFrameTopic(cam), stamp, toMsg(sf));
     }
-    if (sim.options().color && !o.hd_mono) {
+    if (o.write_color && !o.hd_mono) {
       const KinectTopics k = simKinectTopics(sim, c.camera, frame);
       for (const auto& [topic, img] : k.images) bag->write("/" + topic, stamp, img);
       for (const auto& [topic, info] : k.infos) bag->write("/" + topic, stamp, info);
@@ -223,6 +262,45 @@ void applyModelArgs(const ModelArgs& m, sim::SimulatorOptions* opt) {
   for (const std::string& b : m.bumps) opt->bumps.push_back(sim::parseCameraBump(b));
 }
 
+/// --detector-model and --detector-param.
+void addDetectorOptions(CLI::App& app, std::string* model, std::vector<std::string>* params) {
+  auto* det_model =
+      app.add_option("--detector-model", *model,
+                     "run the real detector (this model, e.g. models/detector/pipe_yolo.onnx) on "
+                     "colour rendered in memory and write the pipe_detector node's SensorFrames "
+                     "(one pass: no colour in the bag unless --color)")
+          ->check(CLI::ExistingFile)
+          ->excludes("--hd-mono");
+  app.add_option("--detector-param", *params,
+                 "with --detector-model: set one pipe_detector parameter, e.g. "
+                 "confidence_threshold=0.3 (repeatable; docs/parameters.md)")
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
+      ->option_text("KEY=VALUE")
+      ->needs(det_model)
+      ->check(tools::throwingCheck("KEY=VALUE", [](const std::string& kv) {
+        PipeDetectorNodeConfig scratch;
+        const size_t eq = kv.find('=');
+        if (eq == std::string::npos || eq == 0) fail("expected KEY=VALUE, got '", kv, "'");
+        applyParamString(pipeDetectorParamTable(), &scratch, kv.substr(0, eq), kv.substr(eq + 1),
+                         "--detector-param");
+      }));
+}
+
+/// The pipe_detector node's parameters for --detector-model: the node's defaults, the model,
+/// crop_depth from --crop, then every --detector-param.
+PipeDetectorNodeConfig detectorParams(const std::string& model,
+                                      const std::vector<std::string>& params, bool crop) {
+  PipeDetectorNodeConfig p;
+  p.detector.model = model;
+  p.crop_depth = crop;
+  for (const std::string& kv : params) {
+    const size_t eq = kv.find('=');
+    applyParamString(pipeDetectorParamTable(), &p, kv.substr(0, eq), kv.substr(eq + 1),
+                     "--detector-param");
+  }
+  return p;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -232,6 +310,8 @@ int main(int argc, char** argv) {
   FrameOptions fo;
   double fps = 0.0;
   ModelArgs model_args;
+  std::string detector_model;
+  std::vector<std::string> detector_params;
   sim::SimulatorOptions opt;
   opt.sensor_config_dir = pkg + "/config/sensors";
   opt.stamp_origin_ns = 1000000000;  // t = 0 at ROS time 1 s (0 means "latest" to tf2)
@@ -279,11 +359,20 @@ int main(int argc, char** argv) {
   app.add_flag("--crop", fo.crop,
                "crop each SensorFrame's depth to its boxes' frustum (~100x smaller)");
   app.add_flag("--quiet", fo.quiet, "no progress bar");
+  addDetectorOptions(app, &detector_model, &detector_params);
   addModelOptions(app, &opt, &model_args);
   tools::parseOrExit(app, argc, argv);
   try {
     applyModelArgs(model_args, &opt);
     if (fo.hd_mono) renderForCalibration(&opt);
+    fo.write_color = opt.color;
+    std::optional<OfflineDetector> detector;
+    if (!detector_model.empty()) {
+      detector.emplace(detectorParams(detector_model, detector_params, fo.crop), detector_model);
+      opt.color = true;                  // rendered for the detector, written only with --color
+      opt.simulated_detection = false;  // the real detector's boxes instead
+      fo.detector = &*detector;
+    }
     auto simulator = sim::loadScenario(rig, scene, opt);
     sim::RigSimulator& sim = *simulator;
     if (fps > 0)
@@ -297,7 +386,10 @@ int main(int argc, char** argv) {
 
     std::optional<RigCalibration> published;
     if (!published_rig.empty()) published = loadRigCalibration(published_rig);
-    writeStaticTf(sim, start, published ? &*published : nullptr, &bag);
+    const tf2_msgs::TFMessage tf_static =
+        writeStaticTf(sim, start, published ? &*published : nullptr, &bag);
+    if (detector)
+      for (const auto& t : tf_static.transforms) detector->addTf(t, true);
     if (!true_rig.empty()) writeTrueRig(sim, true_rig);
 
     const auto wall0 = std::chrono::steady_clock::now();
@@ -310,6 +402,12 @@ int main(int argc, char** argv) {
         "simulate_bag: wrote %zu frames (%.1f s of %zu cameras) in %.1f s: %.2f six-camera "
         "frames per second\n",
         frames, duration, sim.numCameras(), wall, frames / 6.0 / std::max(wall, 1e-9));
+    if (detector)
+      std::printf("simulate_bag: detector %s: %zu frames, %zu box_end and %zu pin_end boxes, "
+                  "%.1f ms per frame\n",
+                  detector_model.c_str(), detector->frames(), detector->boxes(EndLabel::kBoxEnd),
+                  detector->boxes(EndLabel::kPinEnd),
+                  detector->detectorMs() / std::max<size_t>(detector->frames(), 1));
   } catch (const InputError& e) {
     std::cerr << "\nsimulate_bag: " << e.what() << "\n";
     return 1;

@@ -2,7 +2,10 @@
 
 #include "drill_pipe_pose/core/detector/detector_node_params.hpp"
 
+#include <cmath>
+
 #include "drill_pipe_pose/core/detector/yolo_decoding.hpp"
+#include "drill_pipe_pose/core/errors.hpp"
 
 namespace drill_pipe_pose {
 
@@ -71,6 +74,30 @@ ParamTable<C> makeTable() {
 const ParamTable<PipeDetectorNodeConfig>& pipeDetectorParamTable() {
   static const ParamTable<PipeDetectorNodeConfig> table = makeTable();
   return table;
+}
+
+detector::DetectorConfig detectorConfigFromParams(const PipeDetectorNodeConfig& p,
+                                                  const std::string& default_model,
+                                                  const std::string& roi_source) {
+  detector::DetectorConfig c = p.detector;
+  if (c.model.empty()) c.model = default_model;
+  if (!p.labels_file.empty()) c.labels = detector::readLabelsFile(p.labels_file);
+  const std::vector<double>& roi = p.roi;
+  if (roi.empty()) return c;
+  if (roi.size() != 4)
+    fail(roi_source, ": expected [x, y, width, height] in colour pixels (or [] for the whole image), got ",
+         roi.size(), " numbers");
+  for (size_t i = 0; i < 4; ++i)
+    if (!(roi[i] >= 0.0) || roi[i] != std::floor(roi[i]))
+      fail(roi_source, "[", i, "] = ", roi[i], ": must be a non-negative integer");
+  c.roi.x_offset = static_cast<uint32_t>(roi[0]);
+  c.roi.y_offset = static_cast<uint32_t>(roi[1]);
+  c.roi.width = static_cast<uint32_t>(roi[2]);
+  c.roi.height = static_cast<uint32_t>(roi[3]);
+  if (c.roi.width == 0 || c.roi.height == 0)
+    fail(roi_source, " = [", roi[0], ", ", roi[1], ", ", roi[2], ", ", roi[3],
+         "]: width and height must be > 0");
+  return c;
 }
 
 std::string pipeDetectorParamsMarkdown() {

@@ -28,6 +28,14 @@ struct PipeDetectorNodeConfig {
 
 const ParamTable<PipeDetectorNodeConfig>& pipeDetectorParamTable();
 
+/// The detector's configuration from the node's parameters: `p.detector` with model "" replaced
+/// by `default_model`, the labels from labels_file when set and roi from [x, y, width, height]
+/// (checked: four non-negative integers, width and height > 0; InputError naming
+/// `roi_source`, e.g. "parameter /cam1/pipe_detector/roi"). Used by the node and detect_bag.
+detector::DetectorConfig detectorConfigFromParams(const PipeDetectorNodeConfig& p,
+                                                  const std::string& default_model,
+                                                  const std::string& roi_source);
+
 /// The pipe_detector parameter table of docs/parameters.md (Markdown).
 std::string pipeDetectorParamsMarkdown();
 
