@@ -141,19 +141,22 @@ TEST(PoseLabels, AJointBehindAWallIsNotLabelledAsVisible) {
   EXPECT_EQ(out[0].labels.size(), 1u);
   EXPECT_TRUE(out[2].keep) << out[2].why;
   EXPECT_TRUE(out[2].labels.empty());
-  // A wall over the image's left part (u < 250): the box covers only the visible part.
+  // A wall over the image's left part (u < 300; the joint spans u = 283-320): the box covers only
+  // the visible part.
   DepthImage half = modelDepth(m, boxEndAlongX(), 8.0f);
   for (uint32_t v = 0; v < 480; ++v)
-    for (uint32_t u = 0; u < 250; ++u) setDepth(&half, u, v, 3.0f);
+    for (uint32_t u = 0; u < 300; ++u) setDepth(&half, u, v, 3.0f);
   const EndInView part = projectEnd(m, boxEndAlongX(), view(half), params);
   ASSERT_TRUE(part.has_box);
   EXPECT_GT(part.occluded, 0);
-  EXPECT_NEAR(part.box.x_min, 249.5, 1.0);
+  EXPECT_NEAR(part.box.x_min, 299.5, 1.0);
   EXPECT_NEAR(part.box.x_max, kCx, 0.5);
 }
 
 TEST(PoseLabels, CovarianceGate) {
-  const LabelParams params;
+  LabelParams params;
+  params.max_position_sigma = 0.01;
+  params.max_axis_sigma_deg = 1.0;
   PoseSample p = tightPose(EndLabel::kBoxEnd, boxEndAlongX());
   PoseGate g = gatePose(p, params);
   EXPECT_TRUE(g.ok) << g.why;
