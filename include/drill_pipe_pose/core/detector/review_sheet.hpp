@@ -29,8 +29,9 @@ struct ReviewEntry {
 cv::Mat reviewCrop(const cv::Mat& bgr, const DetectionBox& box, int height = 160);
 
 /// Labels at or above this doubt are the ones a person must look at (the sheet says how many).
-/// Chosen on seed 110: every wrong label there had a doubt of at least ... (scripts/bench_labels
-/// prints the doubt rank of every wrong label).
+/// Not yet chosen by measurement: on seeds 111-114 there was no wrong label to rank, and 649 of
+/// 658 labels scored at least 0.5 (docs/results.md); scripts/bench_labels prints where wrong
+/// labels rank once there are some.
 constexpr double kDefaultReviewDoubt = 0.5;
 
 /// Writes DIR/index.html for the entries (sorted by doubt, most doubtful first). Returns how many
