@@ -2,7 +2,8 @@
 //
 //   rosrun drill_pipe_pose simulate_bag --scene config/scenes/thesis_vertical.yaml --out X.bag
 //       [--rig config/rigs/thesis_lab.yaml] [--duration 10] [--start 0] [--profile NAME]
-//       [--seed 1] [--no-detection | --true-boxes] [--color] [--crop] [--sensors config/sensors]
+//       [--seed 1] [--no-detection | --true-boxes] [--miss-probability P] [--swap-probability P]
+//       [--color] [--crop] [--sensors config/sensors]
 //       [--quiet]
 //       [--effect-off EFFECT]... [--model fitted|before-fit|additive] [--true-rig FILE]
 //       [--hd-mono] [--fps N]
@@ -280,6 +281,17 @@ int main(int argc, char** argv) {
          "the SensorFrames' boxes are the exact visible silhouettes (no detector errors), to "
          "score labels against")
       ->excludes("--no-detection");
+  app.add_option("--miss-probability", opt.detector.miss_probability,
+                 "simulated detector: probability that an end is missed in a camera frame "
+                 "(a heavier error model for the estimator's input)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1.0))
+      ->excludes("--true-boxes");
+  app.add_option("--swap-probability", opt.detector.swap_probability,
+                 "simulated detector: probability of a box_end <-> pin_end label swap")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1.0))
+      ->excludes("--true-boxes");
   auto* color = app.add_flag(
       "--color", opt.color,
       "also write the kinect2_bridge-style colour and depth topics (large bags)");
