@@ -213,7 +213,7 @@ TEST(PoseLabels, AnImageNeedsEnoughCamerasToConfirmThePose) {
   EXPECT_TRUE(out[0].keep) << out[0].why;
   ASSERT_EQ(out[0].labels.size(), 1u);
   EXPECT_EQ(out[0].labels[0].id, "cam1_1000000000_box_end");
-  EXPECT_LT(out[0].labels[0].doubt, 0.5);
+  EXPECT_LT(out[0].labels[0].doubt, kDefaultReviewDoubt);
   // No pose for an end the recording holds: the image is left out.
   in.expected = {{true, true}};
   EXPECT_FALSE(labelImages(in, params)[0].keep);
@@ -234,8 +234,41 @@ TEST(PoseLabels, PoseTrackInterpolates) {
   EXPECT_NEAR(mid->T_world_end.translation().x(), 0.025, 1e-12);
   EXPECT_NEAR(Eigen::AngleAxisd(mid->T_world_end.linear()).angle(), 0.05, 1e-9);
   EXPECT_DOUBLE_EQ(mid->covariance(0, 0), 4e-6);
+  EXPECT_TRUE(mid->T_prev.isApprox(a));  // the estimates around it, for the doubt's spread
+  EXPECT_TRUE(mid->T_next.isApprox(b));
   EXPECT_FALSE(t.at(900000000, 0.1));  // 100 ms before the first: more than half the gap
   EXPECT_TRUE(t.at(1060000000, 0.1));  // 20 ms after the last: the nearest
+}
+
+TEST(PoseLabels, DoubtIsMeasured) {
+  // The spread: the box end along x at 5 m moved 10 mm across the view between the estimates
+  // around the pose: 500 px/m * 0.01 m = 1 px at both axis end points.
+  const LabelModel m = makeLabelModel(EndLabel::kBoxEnd, ToolJointDimensions(), 0.003);
+  PoseSample p = tightPose(EndLabel::kBoxEnd, boxEndAlongX());
+  p.T_prev = p.T_next = p.T_world_end;
+  EXPECT_DOUBLE_EQ(poseSpreadPx(m, p, view()), 0.0);
+  p.T_next.translation().y() += 0.01;
+  EXPECT_NEAR(poseSpreadPx(m, p, view()), 1.0, 1e-9);
+  // The parts: this camera's see-through share, the measuring cameras that do not confirm, the
+  // spread over the box's smaller side.
+  LabelItem item;
+  item.box.x_min = 100;
+  item.box.x_max = 200;
+  item.box.y_min = 50;
+  item.box.y_max = 90;  // 40 px high
+  item.agree_fraction = 0.9;
+  item.agreeing_cameras = 3;
+  item.measured_cameras = 4;
+  item.spread_px = 8;
+  const DoubtParts d = doubtParts(item);
+  EXPECT_NEAR(d.disagree, 0.1, 1e-12);
+  EXPECT_NEAR(d.unconfirmed, 0.25, 1e-12);
+  EXPECT_NEAR(d.spread, 0.2, 1e-12);
+  EXPECT_NEAR(labelDoubt(item, LabelParams()), 0.2, 1e-12);  // the spread (see labelDoubt)
+  item.measured_cameras = 0;  // nobody measures it
+  EXPECT_DOUBLE_EQ(doubtParts(item).unconfirmed, 1.0);
+  item.corrected = true;
+  EXPECT_DOUBLE_EQ(labelDoubt(item, LabelParams()), 0.0);
 }
 
 TEST(PoseLabels, CorrectionsAndRejectionsFiles) {

@@ -47,6 +47,8 @@ LabelModel makeLabelModel(EndLabel label, const ToolJointDimensions& dims, doubl
   for (const OrientedPoint& p :
        sampleProfileSurface(toolJointProfile(label, dims), spacing, 1u, true))
     if (p.p.z() >= z_min - 1e-9 && p.p.z() <= z_max + 1e-9) m.points.push_back(p);
+  m.z_min = z_min;
+  m.z_max = z_max;
   return m;
 }
 
@@ -129,6 +131,19 @@ EndInView projectEnd(const LabelModel& model, const Eigen::Isometry3d& T_world_e
   return out;
 }
 
+double poseSpreadPx(const LabelModel& model, const PoseSample& pose, const LabelView& view) {
+  double spread = 0;
+  const Eigen::Isometry3d T_prev = view.T_world_color.inverse() * pose.T_prev;
+  const Eigen::Isometry3d T_next = view.T_world_color.inverse() * pose.T_next;
+  for (const double z : {model.z_min, model.z_max}) {
+    const Eigen::Vector3d p(0, 0, z);
+    Eigen::Vector2d a, b;
+    if (!view.color.project(T_prev * p, &a) || !view.color.project(T_next * p, &b)) continue;
+    spread = std::max(spread, (a - b).norm());
+  }
+  return spread;
+}
+
 bool confirmsPose(const EndInView& e, const LabelParams& params) {
   return e.agree + e.behind >= params.min_agree_points &&
          e.agreeFraction() >= params.agree_fraction;
@@ -138,7 +153,16 @@ std::optional<PoseSample> PoseTrack::at(int64_t stamp_ns, double max_gap) const 
   if (samples_.empty()) return std::nullopt;
   const int64_t gap_ns = static_cast<int64_t>(max_gap * 1e9);
   auto hi = samples_.lower_bound(stamp_ns);
-  if (hi != samples_.end() && hi->first == stamp_ns) return hi->second;
+  if (hi != samples_.end() && hi->first == stamp_ns) {
+    // An estimate at the stamp: its neighbours within the gap bracket it.
+    PoseSample p = hi->second;
+    p.T_prev = p.T_next = p.T_world_end;
+    if (hi != samples_.begin() && stamp_ns - std::prev(hi)->first <= gap_ns)
+      p.T_prev = std::prev(hi)->second.T_world_end;
+    if (std::next(hi) != samples_.end() && std::next(hi)->first - stamp_ns <= gap_ns)
+      p.T_next = std::next(hi)->second.T_world_end;
+    return p;
+  }
   const PoseSample* after = hi != samples_.end() ? &hi->second : nullptr;
   const PoseSample* before = hi != samples_.begin() ? &std::prev(hi)->second : nullptr;
   if (before && after && after->stamp_ns - before->stamp_ns <= gap_ns) {
@@ -152,13 +176,19 @@ std::optional<PoseSample> PoseTrack::at(int64_t stamp_ns, double max_gap) const 
     p.covariance = before->covariance.cwiseMax(after->covariance);
     p.cameras = std::min(before->cameras, after->cameras);
     p.corrected = before->corrected && after->corrected;
+    p.T_prev = before->T_world_end;
+    p.T_next = after->T_world_end;
     return p;
   }
   const PoseSample* nearest = nullptr;
   if (before) nearest = before;
   if (after && (!nearest || after->stamp_ns - stamp_ns < stamp_ns - nearest->stamp_ns))
     nearest = after;
-  if (nearest && std::abs(nearest->stamp_ns - stamp_ns) <= gap_ns / 2) return *nearest;
+  if (nearest && std::abs(nearest->stamp_ns - stamp_ns) <= gap_ns / 2) {
+    PoseSample p = *nearest;
+    p.T_prev = p.T_next = p.T_world_end;  // one estimate: no spread to measure
+    return p;
+  }
   return std::nullopt;
 }
 
@@ -166,21 +196,21 @@ std::string labelId(const std::string& camera, int64_t stamp_ns, EndLabel end) {
   return camera + "_" + std::to_string(stamp_ns) + "_" + labelName(end);
 }
 
-double labelDoubt(const LabelItem& item, const LabelParams& params) {
+DoubtParts doubtParts(const LabelItem& item) {
+  DoubtParts d;
+  d.disagree = std::clamp(1.0 - item.agree_fraction, 0.0, 1.0);
+  d.unconfirmed = item.measured_cameras > 0
+                      ? std::clamp(1.0 - double(item.agreeing_cameras) / item.measured_cameras,
+                                   0.0, 1.0)
+                      : 1.0;
+  const double side = std::min(item.box.x_max - item.box.x_min, item.box.y_max - item.box.y_min);
+  d.spread = std::clamp(item.spread_px / std::max(1.0, side), 0.0, 1.0);
+  return d;
+}
+
+double labelDoubt(const LabelItem& item, const LabelParams& /*params*/) {
   if (item.corrected) return 0.0;
-  const double sigma = std::max(item.position_sigma / params.max_position_sigma,
-                                item.axis_sigma_deg / params.max_axis_sigma_deg);
-  // This camera's disagreement: 0 when all agree, 1 at the agree_fraction limit.
-  const double disagree = (1.0 - item.agree_fraction) / std::max(1e-9, 1.0 - params.agree_fraction);
-  // Occlusion: 0 fully visible, 1 at the min_visible_fraction limit.
-  const double occluded =
-      (1.0 - item.visible_fraction) / std::max(1e-9, 1.0 - params.min_visible_fraction);
-  // Cameras that see the end but do not confirm it.
-  const double unconfirmed =
-      item.in_view_cameras > 0
-          ? 1.0 - double(item.agreeing_cameras) / double(item.in_view_cameras)
-          : 1.0;
-  return std::clamp(std::max({sigma, disagree, occluded, unconfirmed}), 0.0, 1.0);
+  return doubtParts(item).spread;
 }
 
 namespace {
@@ -188,9 +218,11 @@ namespace {
 /// Per end, for every view: how many distinct cameras confirm the end's pose within the sync
 /// window of the view's stamp, and how many see it (have points of it in their image).
 void cameraAgreement(const LabelInputs& in, const LabelParams& params, int e,
-                     std::vector<int>* agreeing, std::vector<int>* in_view) {
+                     std::vector<int>* agreeing, std::vector<int>* measured,
+                     std::vector<int>* in_view) {
   const size_t n = in.cameras.size();
   agreeing->assign(n, 0);
+  measured->assign(n, 0);
   in_view->assign(n, 0);
   const int64_t window = static_cast<int64_t>(params.sync_window * 1e9);
   std::vector<size_t> order(n);
@@ -201,15 +233,17 @@ void cameraAgreement(const LabelInputs& in, const LabelParams& params, int e,
   for (size_t k = 0; k < n; ++k) {
     const size_t v = order[k];
     while (in.stamps_ns[order[lo]] < in.stamps_ns[v] - window) ++lo;
-    std::set<std::string> agree, seen;
+    std::set<std::string> agree, measuring, seen;
     for (size_t j = lo; j < n && in.stamps_ns[order[j]] <= in.stamps_ns[v] + window; ++j) {
       const size_t w = order[j];
       if (!in.poses[w][e]) continue;
       const EndInView& p = in.projections[w][e];
       if (p.in_image > 0) seen.insert(in.cameras[w]);
+      if (p.agree + p.behind >= params.min_agree_points) measuring.insert(in.cameras[w]);
       if (confirmsPose(p, params)) agree.insert(in.cameras[w]);
     }
     (*agreeing)[v] = static_cast<int>(agree.size());
+    (*measured)[v] = static_cast<int>(measuring.size());
     (*in_view)[v] = static_cast<int>(seen.size());
   }
 }
@@ -218,8 +252,9 @@ void cameraAgreement(const LabelInputs& in, const LabelParams& params, int e,
 
 std::vector<ImageLabels> labelImages(const LabelInputs& in, const LabelParams& params) {
   const size_t n = in.cameras.size();
-  std::array<std::vector<int>, kNumEnds> agreeing, in_view;
-  for (int e = 0; e < kNumEnds; ++e) cameraAgreement(in, params, e, &agreeing[e], &in_view[e]);
+  std::array<std::vector<int>, kNumEnds> agreeing, measured, in_view;
+  for (int e = 0; e < kNumEnds; ++e)
+    cameraAgreement(in, params, e, &agreeing[e], &measured[e], &in_view[e]);
   std::vector<ImageLabels> out(n);
   for (size_t v = 0; v < n; ++v) {
     ImageLabels& img = out[v];
@@ -259,9 +294,10 @@ std::vector<ImageLabels> labelImages(const LabelInputs& in, const LabelParams& p
         break;
       }
       if (!pose->corrected && p.agree + p.behind >= params.min_agree_points &&
-          p.agreeFraction() < params.agree_fraction) {
+          p.agreeFraction() < params.own_agree_fraction) {
         img.keep = false;
-        img.why = end + ": this camera's depth disagrees";
+        img.why = end + ": this camera's depth disagrees (agree " +
+                  std::to_string(p.agreeFraction()) + ")";
         break;
       }
       if (!p.has_box || p.boxArea() < params.min_box_area) {
@@ -277,6 +313,8 @@ std::vector<ImageLabels> labelImages(const LabelInputs& in, const LabelParams& p
       item.position_sigma = gate.position_sigma;
       item.axis_sigma_deg = gate.axis_sigma_deg;
       item.agreeing_cameras = agreeing[e][v];
+      item.measured_cameras = measured[e][v];
+      item.spread_px = p.spread_px;
       item.in_view_cameras = in_view[e][v];
       item.corrected = pose->corrected;
       item.doubt = labelDoubt(item, params);

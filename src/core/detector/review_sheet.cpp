@@ -89,7 +89,8 @@ size_t writeReviewSheet(const std::string& dir, std::vector<ReviewEntry> entries
       << "<br>doubt " << std::setprecision(2) << it.doubt << " | " << labelName(it.box.label)
       << " | visible " << std::setprecision(0) << 100 * it.visible_fraction << " % | agree "
       << 100 * it.agree_fraction << " % | cameras " << it.agreeing_cameras << "/"
-      << it.in_view_cameras << " | sigma " << std::setprecision(1) << it.position_sigma * 1e3
+      << it.in_view_cameras << " | spread " << std::setprecision(1) << it.spread_px << " px"
+      << " | sigma " << std::setprecision(1) << it.position_sigma * 1e3
       << " mm, " << std::setprecision(2) << it.axis_sigma_deg << " deg"
       << (it.corrected ? " | corrected" : "") << "<br>stamp " << std::setprecision(6)
       << e.pose_stamp_ns * 1e-9 << ", translation [" << std::setprecision(4) << t.x() << ", "
