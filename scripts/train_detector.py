@@ -25,6 +25,14 @@ The shipped model (55 minutes on 2 cores, see models/detector/README.md):
         --val-split val --out D/lite --minutes 55 --eval-scale 1.0
 CI (a few minutes at most, checks that the pipeline and the ONNX export still work):
     /usr/bin/python3 scripts/train_detector.py --smoke --lite --data SMOKE/yolo --out SMOKE/model
+
+Fine-tuning on a rig's own data (label_from_poses, README "Teach the detector a new rig"):
+    /usr/bin/python3 scripts/train_detector.py --finetune DATA/yolo --out D/ft [--minutes 20]
+starts from the shipped model's weights, read from its ONNX file (--init-onnx, default
+models/detector/pipe_yolo.onnx, the lite network), with the batch norms frozen (the export folds
+them into the convolutions, so each starts as the identity plus the folded bias), a lower learning
+rate (--lr default 5e-4) and a 10-minute default budget. Mix in some of the original renders
+(--data-extra) to keep what the model knew.
 """
 
 import argparse
@@ -398,15 +406,96 @@ def export_onnx(model, path, size):
           (path, OPSET, os.path.getsize(path) / 1e6, cv2.__version__))
 
 
+# --------------------------------------------------------------------------------------------
+# Fine-tuning from the shipped ONNX model
+def load_onnx_weights(model, path):
+    """Loads the weights of an exported PipeYOLO (ONNX, batch norms folded into the convolutions)
+    into `model`: each convolution's weights, its folded bias into the following BatchNorm's bias
+    (weight 1, running mean 0, running variance 1 - eps: the identity plus the bias). Checks that
+    the result computes what OpenCV computes with the ONNX file."""
+    net = cv2.dnn.readNetFromONNX(path)
+    modules = dict(model.named_modules())
+    loaded = 0
+    with torch.no_grad():
+        for name in net.getLayerNames():
+            layer = net.getLayer(name)
+            if layer.type != "Convolution":
+                continue
+            # ONNX scopes: /s8/s8.1/a/a.0/Conv is module s8.1.a.0 (a Sequential's child carries
+            # its parent's name as a prefix, an attribute child does not).
+            parts = name.split("!")[-1].strip("/").split("/")
+            path_parts, last = [], None
+            for c in parts[:-1]:
+                path_parts.append(c[len(last) + 1:] if last and c.startswith(last + ".") else c)
+                last = c
+            mod_name = ".".join(path_parts)
+            if parts[-1] != "Conv" or mod_name not in modules:
+                sys.exit("train_detector: %s: layer %s is not a PipeYOLO convolution (was the model "
+                         "exported by this script?)" % (path, name))
+            conv_mod = modules[mod_name]
+            w = torch.from_numpy(np.ascontiguousarray(layer.blobs[0]))
+            b = torch.from_numpy(np.ascontiguousarray(layer.blobs[1]).reshape(-1))
+            if tuple(conv_mod.weight.shape) != tuple(w.shape):
+                sys.exit("train_detector: %s: %s has weights %s, the network %s (use --lite for "
+                         "the shipped model)" % (path, mod_name, tuple(w.shape),
+                                                 tuple(conv_mod.weight.shape)))
+            conv_mod.weight.copy_(w)
+            if conv_mod.bias is not None:
+                conv_mod.bias.copy_(b)
+            else:
+                head, _, idx = mod_name.rpartition(".")
+                bn = modules["%s.%d" % (head, int(idx) + 1) if head else str(int(idx) + 1)]
+                bn.weight.fill_(1.0)
+                bn.bias.copy_(b)
+                bn.running_mean.zero_()
+                bn.running_var.fill_(1.0 - bn.eps)
+            loaded += 1
+    n_conv = sum(1 for m in model.modules() if isinstance(m, nn.Conv2d))
+    if loaded != n_conv:
+        sys.exit("train_detector: %s holds %d convolutions, the network %d" % (path, loaded, n_conv))
+    # The same output as OpenCV's on a test input.
+    model.eval()
+    x = np.random.RandomState(0).rand(1, 3, 64, 96).astype(np.float32)
+    net.setInput(x)
+    ref = net.forward()
+    with torch.no_grad():
+        out = model(torch.from_numpy(x)).numpy()
+    err = float(np.abs(out - ref).max())
+    if err > 1e-3:
+        sys.exit("train_detector: the weights read from %s give outputs %.2g off OpenCV's" %
+                 (path, err))
+    print("loaded %d convolutions from %s (output within %.1g of OpenCV's)" % (loaded, path, err))
+
+
+def set_training(model, freeze_bn):
+    """Training mode; with freeze_bn the batch norms keep their running statistics (fine-tuning
+    from folded weights, and small batches)."""
+    model.train()
+    if freeze_bn:
+        for m in model.modules():
+            if isinstance(m, nn.BatchNorm2d):
+                m.eval()
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
-    ap.add_argument("--data", required=True, help="YOLO dataset root (images/, labels/)")
+    ap.add_argument("--data", help="YOLO dataset root (images/, labels/)")
+    ap.add_argument("--finetune", metavar="DATA",
+                    help="fine-tune the shipped model (--init-onnx) on this YOLO dataset root "
+                         "(label_from_poses' DIR/yolo)")
+    ap.add_argument("--init-onnx", default=os.path.join(os.path.dirname(os.path.abspath(__file__)),
+                                                        "..", "models", "detector",
+                                                        "pipe_yolo.onnx"),
+                    help="with --finetune: the exported model to start from")
+    ap.add_argument("--data-extra", help="with --finetune: another YOLO dataset root mixed in "
+                                         "(e.g. the original renders)")
     ap.add_argument("--split", default="train")
     ap.add_argument("--val", help="YOLO dataset root for validation (default: none)")
     ap.add_argument("--val-split", default="val")
     ap.add_argument("--out", required=True, help="output folder for pipe_yolo.onnx / .pt")
     ap.add_argument("--name", default="pipe_yolo")
-    ap.add_argument("--minutes", type=float, default=45.0, help="training time budget [min]")
+    ap.add_argument("--minutes", type=float, default=None,
+                    help="training time budget [min] (default 45; 10 with --finetune)")
     ap.add_argument("--epochs", type=int, default=1000, help="upper bound on epochs")
     ap.add_argument("--batch", type=int, default=16)
     ap.add_argument("--crop", type=int, default=256, help="training crop [px]")
@@ -418,7 +507,8 @@ def main():
     ap.add_argument("--width", type=float, default=1.0, help="channel width multiplier")
     ap.add_argument("--lite", action="store_true",
                     help="the lite network: --width 0.5, no stride-4 residual, one stride-8 conv")
-    ap.add_argument("--lr", type=float, default=2e-3)
+    ap.add_argument("--lr", type=float, default=None, help="learning rate (default 2e-3; 5e-4 "
+                                                           "with --finetune)")
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--export-size", default="416x416", help="ONNX input WxH (any works later)")
@@ -426,6 +516,16 @@ def main():
     ap.add_argument("--smoke", action="store_true",
                     help="CI mode: at most 16 images, one epoch, small crops, export + OpenCV check")
     a = ap.parse_args()
+    if a.finetune:
+        if a.data:
+            ap.error("--finetune DATA replaces --data")
+        a.data, a.lite = a.finetune, True
+    if not a.data:
+        ap.error("--data (or --finetune) is required")
+    if a.minutes is None:
+        a.minutes = 10.0 if a.finetune else 45.0
+    if a.lr is None:
+        a.lr = 5e-4 if a.finetune else 2e-3
 
     torch.set_num_threads(max(1, a.threads))
     random.seed(a.seed)
@@ -433,6 +533,8 @@ def main():
     torch.manual_seed(a.seed)
     rng = random.Random(a.seed)
     items = read_split(a.data, a.split)
+    if a.finetune and a.data_extra:
+        items += read_split(a.data_extra, a.split)
     if a.smoke:
         items = items[:16]
         a.epochs, a.batch, a.crop, a.minutes = 1, 4, 128, 5.0
@@ -445,6 +547,9 @@ def main():
         model = PipeYOLO(nc, a.width)
     if a.resume:
         model.load_state_dict(torch.load(a.resume))
+    elif a.finetune:
+        load_onnx_weights(model, a.init_onnx)
+    set_training(model, bool(a.finetune))
     nparams = sum(p.numel() for p in model.parameters())
     print("PipeYOLO: %.3f M parameters, %d training images, crop %d, scale %.2f-%.2f, "
           "%.0f min budget, %d threads" % (nparams / 1e6, len(data), a.crop, a.scale_min,
@@ -485,6 +590,7 @@ def main():
         torch.save(model.state_dict(), os.path.join(a.out, a.name + ".pt"))
         if val_items and (done or epoch % 3 == 2):
             aps, ngt = evaluate(model, val_items, a.eval_scale, nc, limit=150)
+            set_training(model, bool(a.finetune))
             print("epoch %d: validation AP@0.5 %s (gt %s), %.0f s" %
                   (epoch, " ".join("%s %.3f" % (c, ap) for c, ap in zip(CLASSES, aps)), ngt,
                    time.time() - t0), flush=True)
@@ -492,6 +598,7 @@ def main():
             break
     w, h = (int(v) for v in a.export_size.split("x"))
     export_onnx(model, os.path.join(a.out, a.name + ".onnx"), (w, h))
+    set_training(model, bool(a.finetune))
     with open(os.path.join(a.out, "labels.txt"), "w") as f:
         f.write("# Class names of %s.onnx, in model order (one per line).\n" % a.name)
         f.write("\n".join(CLASSES) + "\n")

@@ -175,4 +175,35 @@ geometry_msgs::TransformStamped toTransformMsg(const Eigen::Isometry3d& T_parent
   return t;
 }
 
+void fillPipeEnd(const EndEstimate& e, PipeEnd* end) {
+  end->pose.pose = tf2::toMsg(e.T_world_end);
+  for (int i = 0; i < 36; ++i) end->pose.covariance[i] = e.covariance(i / 6, i % 6);
+  end->residual = e.residual;
+  end->points = static_cast<uint32_t>(e.points);
+  end->cameras = e.cameras;
+}
+
+PipeEnds toPipeEndsMsg(const CycleOutput& out, const std::string& world_frame) {
+  PipeEnds ends;
+  ends.header.stamp = fromNs(out.cycle.stamp_ns);
+  ends.header.frame_id = world_frame;
+  for (int e = 0; e < kNumEnds; ++e) {
+    const PublishedEnd& pub = out.ends[e];
+    PipeEnd end;
+    end.label = labelName(static_cast<EndLabel>(e));
+    end.valid = pub.valid;
+    end.age = ros::Duration(pub.age);
+    end.message = pub.message;
+    if (pub.valid) fillPipeEnd(pub.estimate, &end);
+    ends.ends.push_back(end);
+  }
+  if (out.pin_in_box) {
+    ends.pin_in_box.valid = true;
+    ends.pin_in_box.axial_standoff = out.pin_in_box->axial_standoff;
+    ends.pin_in_box.lateral_offset = out.pin_in_box->lateral_offset;
+    ends.pin_in_box.axis_angle = out.pin_in_box->axis_angle;
+  }
+  return ends;
+}
+
 }  // namespace drill_pipe_pose

@@ -172,9 +172,7 @@ class PoseEstimatorNode {
   void publish(const CycleOutput& out) {
     const CycleResult& r = out.result;
     const ros::Time stamp = fromNs(out.cycle.stamp_ns);
-    PipeEnds ends;
-    ends.header.stamp = stamp;
-    ends.header.frame_id = cfg_.world_frame;
+    PipeEnds ends = toPipeEndsMsg(out, cfg_.world_frame);
     PipeEndArray typed;
     typed.header = ends.header;
     EstimatorStatus status;
@@ -199,19 +197,13 @@ class PoseEstimatorNode {
       const EndEstimate& est = r.ends[e];
       const PublishedEnd& pub = out.ends[e];
       if (est.valid) publishPose(e, est, stamp);
-      PipeEnd end;
-      end.label = labelName(static_cast<EndLabel>(e));
-      end.valid = pub.valid;
-      end.age = ros::Duration(pub.age);
-      end.message = pub.message;
-      if (pub.valid) fillPipeEnd(pub.estimate, &end);
+      const PipeEnd& end = ends.ends[e];
       if (!end.message.empty()) message += std::string(end.label) + ": " + end.message + ". ";
       status.ends.push_back(end.label);
       status.points.push_back(est.points);
       status.residual.push_back(est.residual);
       status.instances.push_back(r.instances[e]);
       typed.ends.push_back(typedEnd(end, pub.valid ? &pub.estimate : nullptr));
-      ends.ends.push_back(end);
     }
     // Every other end in the work zone (several pipes at once): pipe_end_types only.
     for (const EndEstimate& est : r.others) {
@@ -220,12 +212,6 @@ class PoseEstimatorNode {
       end.valid = true;
       fillPipeEnd(est, &end);
       typed.ends.push_back(typedEnd(end, &est));
-    }
-    if (out.pin_in_box) {
-      ends.pin_in_box.valid = true;
-      ends.pin_in_box.axial_standoff = out.pin_in_box->axial_standoff;
-      ends.pin_in_box.lateral_offset = out.pin_in_box->lateral_offset;
-      ends.pin_in_box.axis_angle = out.pin_in_box->axis_angle;
     }
     status.cutout_ms = r.timing.cutout_ms;
     status.fusion_ms = r.timing.fusion_ms;
@@ -238,15 +224,6 @@ class PoseEstimatorNode {
     status.latency_ms = (wallNow() - out.cycle.last_arrival) * 1e3;
     status_pub_.publish(status);
     publishDebug(r, stamp, out.inputs);
-  }
-
-  /// The estimate's pose, covariance, residual, points and cameras into `end`.
-  static void fillPipeEnd(const EndEstimate& e, PipeEnd* end) {
-    end->pose.pose = tf2::toMsg(e.T_world_end);
-    for (int i = 0; i < 36; ++i) end->pose.covariance[i] = e.covariance(i / 6, i % 6);
-    end->residual = e.residual;
-    end->points = static_cast<uint32_t>(e.points);
-    end->cameras = e.cameras;
   }
 
   /// The end with its instance id and pipe type (of the estimate it publishes; null: none).

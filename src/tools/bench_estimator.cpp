@@ -6,8 +6,8 @@
 //
 //   rosrun drill_pipe_pose bench_estimator BAG [--config FILE] [--param KEY=VALUE]...
 //       [--method ours|thesis_baseline] [--max-cycles N] [--csv errors.csv]
-//       [--cycles-csv cycles.csv] [--label NAME] [--skip-camera CAM] [--rig RIG_FILE]
-//       [shortcuts, see --help]
+//       [--cycles-csv cycles.csv] [--poses-bag poses.bag] [--label NAME] [--skip-camera CAM]
+//       [--rig RIG_FILE] [shortcuts, see --help]
 //
 // Configuration, in this order: the node's defaults; --config (the YAML file the node loads,
 // e.g. config/estimator_thesis_lab.yaml; its cameras are replaced by the bag's); the shortcut
@@ -15,6 +15,8 @@
 // pose_estimator parameter table (docs/parameters.md), e.g. --param carving/vote_fraction=0.6.
 // "Valid" is the node's: a pose no older than max_pose_age (fresh or the last one repeated).
 // Cycles are formed as the node forms them, each frame arriving 10 ms after its capture stamp.
+// --poses-bag writes the node's /drill_pipe_pose/pipe_ends messages of every cycle (what
+// `rosbag record /drill_pipe_pose/pipe_ends` records from the node), e.g. for label_from_poses.
 // Exit status 0; 1 on a bad bag or configuration; 2 on a bad command line.
 #include <drill_pipe_pose/SensorFrame.h>
 #include <geometry_msgs/PoseStamped.h>
@@ -48,7 +50,8 @@ using namespace drill_pipe_pose;
 namespace {
 
 struct BenchOptions {
-  std::string bag_path, csv_path, cycles_csv_path, label, config_path, skip_camera;
+  std::string bag_path, csv_path, cycles_csv_path, poses_bag_path, label, config_path,
+      skip_camera;
   size_t max_cycles = 0;
   /// key=value settings in the order they apply: the shortcuts', then --param's.
   std::vector<std::pair<std::string, std::string>> shortcuts, params;
@@ -122,6 +125,9 @@ BenchOptions parseArgs(int argc, char** argv) {
   app.add_option("--csv", o.csv_path, "write the per-estimate errors to this CSV file");
   app.add_option("--cycles-csv", o.cycles_csv_path,
                  "write every cycle's published ends (stamp, cameras, valid, pose) to this CSV");
+  app.add_option("--poses-bag", o.poses_bag_path,
+                 "write every cycle's pipe_ends message (as the node publishes it, topic "
+                 "/drill_pipe_pose/pipe_ends) to this bag");
   app.add_option("--label", o.label, "name of the run in the report (default: the bag's path)");
   app.add_option("--skip-camera", o.skip_camera, "leave this camera's frames out (a dead camera)");
   addShortcut(app, o, "--method", "method", "estimator method: ours|thesis_baseline");
@@ -231,6 +237,8 @@ struct Tally {
   std::vector<ReportedEnd> reported;  ///< every fresh end of every cycle, primary or other
   std::map<std::string, size_t> reasons;
   std::ofstream cycles_csv;
+  rosbag::Bag* poses_bag = nullptr;  ///< --poses-bag
+  std::string world_frame;
   /// Drift watch: per camera, times it was flagged (a clear one turning flagged) and cycles it
   /// spent flagged; its last flag state.
   std::map<std::string, size_t> drift_flags, drift_cycles;
@@ -285,6 +293,9 @@ void tally(const CycleOutput& out, double ms, Tally* t) {
       ty.measurements = est.type_measurements;
     }
   }
+  if (t->poses_bag)
+    t->poses_bag->write(std::string("/drill_pipe_pose/") + conventions::kPipeEndsTopic,
+                        fromNs(out.cycle.stamp_ns), toPipeEndsMsg(out, t->world_frame));
   for (const EndEstimate& e : out.result.ends)
     if (e.valid)
       t->reported.push_back({out.cycle.stamp_ns, e.label, e.instance_id, e.T_world_end.translation()});
@@ -434,6 +445,16 @@ int main(int argc, char** argv) {
       t.cycles_csv << "stamp_ns,cameras,end,valid,fresh,x,y,z,qx,qy,qz,qw\n";
       t.cycles_csv.precision(17);
     }
+    rosbag::Bag poses_bag;
+    if (!opt.poses_bag_path.empty()) {
+      try {
+        poses_bag.open(opt.poses_bag_path, rosbag::bagmode::Write);
+      } catch (const rosbag::BagException& e) {
+        fail("cannot write the poses bag '", opt.poses_bag_path, "': ", e.what());
+      }
+      t.poses_bag = &poses_bag;
+      t.world_frame = cfg.world_frame;
+    }
     // Every frame arrives 10 ms after its capture; each poll's time is shared by its cycles.
     auto poll = [&](double now) {
       if (opt.max_cycles && t.cycles >= opt.max_cycles) return;
@@ -456,6 +477,7 @@ int main(int argc, char** argv) {
       if (opt.max_cycles && t.cycles >= opt.max_cycles) break;
     }
     poll(1e18);
+    if (t.poses_bag) poses_bag.close();
 
     EvaluationOptions eo;
     // Expected cycles: 30 per second of input actually processed.

@@ -29,13 +29,12 @@
 
 #include <chrono>
 #include <cstdio>
-#include <filesystem>
-#include <fstream>
 #include <iostream>
 #include <random>
 #include <sstream>
 
 #include "drill_pipe_pose/core/conventions.hpp"
+#include "drill_pipe_pose/core/detector/dataset_writer.hpp"
 #include "drill_pipe_pose/core/errors.hpp"
 #include "drill_pipe_pose/core/rig_calibration.hpp"
 #include "drill_pipe_pose/sim/rig_simulator.hpp"
@@ -47,7 +46,6 @@
 #endif
 
 using namespace drill_pipe_pose;
-namespace fs = std::filesystem;
 
 namespace {
 
@@ -218,67 +216,26 @@ std::string randomScenario(std::mt19937& rng, int frames, uint32_t scenario_seed
   return y.str();
 }
 
+/// The dataset writer (core/detector/dataset_writer.hpp) with the thesis's augmentations.
 struct Writer {
   Options o;
-  fs::path yolo, voc;
-  std::ofstream yolo_list, voc_list;
-  size_t images = 0, boxes[kNumEnds] = {0, 0};
+  DatasetWriter out;
   std::mt19937 aug_rng;
 
-  explicit Writer(const Options& opt) : o(opt), aug_rng(opt.seed * 7919u + 17u) {
-    if (o.format != "voc") {
-      yolo = fs::path(o.out) / "yolo";
-      fs::create_directories(yolo / "images" / o.split);
-      fs::create_directories(yolo / "labels" / o.split);
-      std::ofstream(yolo / "classes.txt") << "box_end\npin_end\n";
-      yolo_list.open(yolo / (o.split + ".txt"), std::ios::app);
-    }
-    if (o.format != "yolo") {
-      voc = fs::path(o.out) / "voc";
-      fs::create_directories(voc / "JPEGImages");
-      fs::create_directories(voc / "Annotations");
-      fs::create_directories(voc / "ImageSets" / "Main");
-      voc_list.open(voc / "ImageSets" / "Main" / (o.split + ".txt"), std::ios::app);
-    }
+  explicit Writer(const Options& opt)
+      : o(opt), out(writerOptions(opt)), aug_rng(opt.seed * 7919u + 17u) {}
+
+  static DatasetWriterOptions writerOptions(const Options& opt) {
+    DatasetWriterOptions w;
+    w.out = opt.out;
+    w.split = opt.split;
+    w.format = opt.format;
+    w.jpeg_quality = opt.jpeg_quality;
+    return w;
   }
 
   void write(const std::string& name, const cv::Mat& img, const std::vector<DetectionBox>& bs) {
-    const std::vector<int> params{cv::IMWRITE_JPEG_QUALITY, o.jpeg_quality};
-    if (!yolo.empty()) {
-      const fs::path ip = yolo / "images" / o.split / (name + ".jpg");
-      if (!cv::imwrite(ip.string(), img, params)) fail("render_dataset: cannot write ", ip);
-      std::ofstream l(yolo / "labels" / o.split / (name + ".txt"));
-      for (const DetectionBox& b : bs)
-        l << static_cast<int>(b.label) << " " << (b.x_min + b.x_max) / 2 / img.cols << " "
-          << (b.y_min + b.y_max) / 2 / img.rows << " " << (b.x_max - b.x_min) / img.cols << " "
-          << (b.y_max - b.y_min) / img.rows << "\n";
-      yolo_list << fs::absolute(ip).string() << "\n";
-    }
-    if (!voc.empty()) {
-      const fs::path ip = voc / "JPEGImages" / (name + ".jpg");
-      if (!yolo.empty())
-        fs::copy_file(yolo / "images" / o.split / (name + ".jpg"), ip,
-                      fs::copy_options::overwrite_existing);
-      else if (!cv::imwrite(ip.string(), img, params))
-        fail("render_dataset: cannot write ", ip);
-      std::ofstream x(voc / "Annotations" / (name + ".xml"));
-      x << "<annotation>\n  <folder>JPEGImages</folder>\n  <filename>" << name
-        << ".jpg</filename>\n  <source><database>drill_pipe_pose rig_simulator</database>"
-           "</source>\n  <size><width>"
-        << img.cols << "</width><height>" << img.rows
-        << "</height><depth>3</depth></size>\n  <segmented>0</segmented>\n";
-      for (const DetectionBox& b : bs)
-        x << "  <object>\n    <name>" << labelName(b.label)
-          << "</name>\n    <pose>Unspecified</pose>\n    <truncated>0</truncated>\n"
-             "    <difficult>0</difficult>\n    <bndbox><xmin>"
-          << std::lround(b.x_min) + 1 << "</xmin><ymin>" << std::lround(b.y_min) + 1
-          << "</ymin><xmax>" << std::lround(b.x_max) << "</xmax><ymax>" << std::lround(b.y_max)
-          << "</ymax></bndbox>\n  </object>\n";
-      x << "</annotation>\n";
-      voc_list << name << "\n";
-    }
-    ++images;
-    for (const DetectionBox& b : bs) ++boxes[static_cast<int>(b.label)];
+    out.write(name, img, bs);
   }
 
   /// The thesis's augmentations: translate, scale, mirror (boxes follow; clipped; boxes with
@@ -428,12 +385,14 @@ int main(int argc, char** argv) {
         const double el =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         std::fprintf(stderr, "\rscenario %zu / %zu, %zu images, %zu box_end, %zu pin_end, %.0f s",
-                     i + 1, total, w.images, w.boxes[0], w.boxes[1], el);
+                     i + 1, total, w.out.images(), w.out.boxes(EndLabel::kBoxEnd),
+                     w.out.boxes(EndLabel::kPinEnd), el);
       }
     }
     if (!o.quiet) std::fprintf(stderr, "\n");
-    std::printf("render_dataset: %zu images (%zu box_end, %zu pin_end boxes) in %s\n", w.images,
-                w.boxes[0], w.boxes[1], o.out.c_str());
+    std::printf("render_dataset: %zu images (%zu box_end, %zu pin_end boxes) in %s\n",
+                w.out.images(), w.out.boxes(EndLabel::kBoxEnd), w.out.boxes(EndLabel::kPinEnd),
+                o.out.c_str());
   } catch (const std::exception& e) {
     std::cerr << "render_dataset: " << e.what() << "\n";
     return 1;

@@ -2,7 +2,9 @@
 //
 //   rosrun drill_pipe_pose simulate_bag --scene config/scenes/thesis_vertical.yaml --out X.bag
 //       [--rig config/rigs/thesis_lab.yaml] [--duration 10] [--start 0] [--profile NAME]
-//       [--seed 1] [--no-detection] [--color] [--crop] [--sensors config/sensors] [--quiet]
+//       [--seed 1] [--no-detection | --true-boxes] [--miss-probability P] [--swap-probability P]
+//       [--color] [--crop] [--sensors config/sensors]
+//       [--quiet]
 //       [--effect-off EFFECT]... [--model fitted|before-fit|additive] [--true-rig FILE]
 //       [--hd-mono] [--fps N]
 //       [--published-rig FILE] [--detector-model FILE [--detector-param KEY=VALUE]...]
@@ -30,6 +32,9 @@
 // of each camera, k = round(frame rate / N) (N frames per second per camera), as a recorder that
 // throttles does; the other captures are not rendered. Without these two flags the bag is the same
 // as before they existed.
+// --true-boxes: the SensorFrames' boxes are the exact visible silhouettes (the simulated detector
+// with every error rate at zero, as render_dataset labels), to score labels against
+// (label_from_poses --score-against, scripts/bench_labels).
 // --published-rig puts another rig file's world -> <cam>_link into /tf_static (a calibration's
 // result: the cameras render from their true poses and the estimator fuses with the calibrated).
 // --detector-model runs the real detector in the loop in one pass (issue 22): colour is rendered
@@ -344,6 +349,29 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0.0, 86400.0));
   app.add_flag_function("--no-detection", [&](int64_t) { opt.simulated_detection = false; },
                "send no simulated detections (boxes) in the SensorFrames");
+  app.add_flag_function(
+         "--true-boxes",
+         [&](int64_t) {
+           opt.detector.edge_jitter_px = 0.0;
+           opt.detector.miss_probability = 0.0;
+           opt.detector.swap_probability = 0.0;
+           opt.detector.duplicate_probability = 0.0;
+           opt.detector.false_positive_probability = 0.0;
+         },
+         "the SensorFrames' boxes are the exact visible silhouettes (no detector errors), to "
+         "score labels against")
+      ->excludes("--no-detection");
+  app.add_option("--miss-probability", opt.detector.miss_probability,
+                 "simulated detector: probability that an end is missed in a camera frame "
+                 "(a heavier error model for the estimator's input)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1.0))
+      ->excludes("--true-boxes");
+  app.add_option("--swap-probability", opt.detector.swap_probability,
+                 "simulated detector: probability of a box_end <-> pin_end label swap")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1.0))
+      ->excludes("--true-boxes");
   auto* color = app.add_flag(
       "--color", opt.color,
       "also write the kinect2_bridge-style colour and depth topics (large bags)");

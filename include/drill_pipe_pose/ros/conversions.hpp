@@ -2,6 +2,7 @@
 // Conversions between ROS messages and the ROS-free core types. The only place that knows both.
 
 #include <drill_pipe_pose/PipeBox.h>
+#include <drill_pipe_pose/PipeEnds.h>
 #include <drill_pipe_pose/SensorFrame.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <ros/time.h>
@@ -9,6 +10,7 @@
 #include <sensor_msgs/Image.h>
 
 #include "drill_pipe_pose/core/camera_model.hpp"
+#include "drill_pipe_pose/core/cycle_runner.hpp"
 #include "drill_pipe_pose/core/depth_image.hpp"
 #include "drill_pipe_pose/core/sensor_frame.hpp"
 
@@ -40,6 +42,12 @@ PipeBox toMsg(const DetectionBox& box);
 /// naming the camera and the field. The depth pixels are shared, not copied.
 SensorFrameData fromMsg(const SensorFrameConstPtr& msg, const InputLimits& limits = InputLimits());
 SensorFrame toMsg(const SensorFrameData& frame);
+
+/// The estimate's pose, covariance, residual, points and cameras into `end`.
+void fillPipeEnd(const EndEstimate& e, PipeEnd* end);
+/// One cycle's pipe_ends message as the pose_estimator node publishes it (bench_estimator
+/// --poses-bag writes the same): every configured end, valid or not, and pin_in_box.
+PipeEnds toPipeEndsMsg(const CycleOutput& out, const std::string& world_frame);
 
 /// A transform message parent <- child (T_parent_child) stamped `stamp`.
 geometry_msgs::TransformStamped toTransformMsg(const Eigen::Isometry3d& T_parent_child,
