@@ -306,6 +306,35 @@ PipeDetectorNodeConfig detectorParams(const std::string& model,
   return p;
 }
 
+/// The simulated detector's options: none, exact boxes, or a heavier error model.
+void addSimulatedDetectorOptions(CLI::App& app, sim::SimulatorOptions* o) {
+  app.add_flag_function("--no-detection", [o](int64_t) { o->simulated_detection = false; },
+                        "send no simulated detections (boxes) in the SensorFrames");
+  app.add_flag_function(
+         "--true-boxes",
+         [o](int64_t) {
+           o->detector.edge_jitter_px = 0.0;
+           o->detector.miss_probability = 0.0;
+           o->detector.swap_probability = 0.0;
+           o->detector.duplicate_probability = 0.0;
+           o->detector.false_positive_probability = 0.0;
+         },
+         "the SensorFrames' boxes are the exact visible silhouettes (no detector errors), to "
+         "score labels against")
+      ->excludes("--no-detection");
+  app.add_option("--miss-probability", o->detector.miss_probability,
+                 "simulated detector: probability that an end is missed in a camera frame "
+                 "(a heavier error model for the estimator's input)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1.0))
+      ->excludes("--true-boxes");
+  app.add_option("--swap-probability", o->detector.swap_probability,
+                 "simulated detector: probability of a box_end <-> pin_end label swap")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1.0))
+      ->excludes("--true-boxes");
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -347,31 +376,7 @@ int main(int argc, char** argv) {
   app.add_option("--start", start, "[s] scenario time of the first frame")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 86400.0));
-  app.add_flag_function("--no-detection", [&](int64_t) { opt.simulated_detection = false; },
-               "send no simulated detections (boxes) in the SensorFrames");
-  app.add_flag_function(
-         "--true-boxes",
-         [&](int64_t) {
-           opt.detector.edge_jitter_px = 0.0;
-           opt.detector.miss_probability = 0.0;
-           opt.detector.swap_probability = 0.0;
-           opt.detector.duplicate_probability = 0.0;
-           opt.detector.false_positive_probability = 0.0;
-         },
-         "the SensorFrames' boxes are the exact visible silhouettes (no detector errors), to "
-         "score labels against")
-      ->excludes("--no-detection");
-  app.add_option("--miss-probability", opt.detector.miss_probability,
-                 "simulated detector: probability that an end is missed in a camera frame "
-                 "(a heavier error model for the estimator's input)")
-      ->capture_default_str()
-      ->check(CLI::Range(0.0, 1.0))
-      ->excludes("--true-boxes");
-  app.add_option("--swap-probability", opt.detector.swap_probability,
-                 "simulated detector: probability of a box_end <-> pin_end label swap")
-      ->capture_default_str()
-      ->check(CLI::Range(0.0, 1.0))
-      ->excludes("--true-boxes");
+  addSimulatedDetectorOptions(app, &opt);
   auto* color = app.add_flag(
       "--color", opt.color,
       "also write the kinect2_bridge-style colour and depth topics (large bags)");
