@@ -105,20 +105,8 @@ BenchOptions parseArgs(int argc, char** argv) {
   app.add_option("--config", o.config_path,
                  "the node's YAML configuration (e.g. config/estimator_thesis_lab.yaml)")
       ->check(CLI::ExistingFile);
-  app.add_option_function<std::vector<std::string>>(
-         "--param",
-         [&o](const std::vector<std::string>& kvs) {
-           for (const std::string& kv : kvs) {
-             const size_t eq = kv.find('=');
-             if (eq == std::string::npos || eq == 0)
-               throw CLI::ValidationError("--param", "expected KEY=VALUE, got '" + kv + "'");
-             checkParam("--param", kv.substr(0, eq), kv.substr(eq + 1));
-             o.params.emplace_back(kv.substr(0, eq), kv.substr(eq + 1));
-           }
-         },
-         "set one parameter, e.g. carving/vote_fraction=0.6 (repeatable)")
-      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
-      ->option_text("KEY=VALUE");
+  tools::addKeyValueOption(app, "--param", &o.params, checkParam,
+                           "set one parameter, e.g. carving/vote_fraction=0.6 (repeatable)");
   app.add_option("--max-cycles", o.max_cycles, "stop after N cycles (0: the whole bag)")
       ->capture_default_str()
       ->check(CLI::Range(size_t{0}, size_t{1000000000}));

@@ -74,6 +74,30 @@ CLI::Validator throwingCheck(const std::string& description, F check) {
       description);
 }
 
+/// A repeatable `name KEY=VALUE` option: each pair is checked by `check(name, key, value)` (which
+/// throws CLI::ValidationError for a bad one, so that it exits 2 naming the option) and appended
+/// to `out` in the order given.
+template <class Check>
+CLI::Option* addKeyValueOption(CLI::App& app, const std::string& name,
+                               std::vector<std::pair<std::string, std::string>>* out, Check check,
+                               const std::string& description) {
+  return app
+      .add_option_function<std::vector<std::string>>(
+          name,
+          [name, out, check](const std::vector<std::string>& kvs) {
+            for (const std::string& kv : kvs) {
+              const size_t eq = kv.find('=');
+              if (eq == std::string::npos || eq == 0)
+                throw CLI::ValidationError(name, "expected KEY=VALUE, got '" + kv + "'");
+              check(name, kv.substr(0, eq), kv.substr(eq + 1));
+              out->emplace_back(kv.substr(0, eq), kv.substr(eq + 1));
+            }
+          },
+          description)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
+      ->option_text("KEY=VALUE");
+}
+
 /// Why an axis-aligned box given as x0 y0 z0 x1 y1 z1 is not one (6 numbers, min < max on every
 /// axis); empty when it is.
 inline std::string boxError(const std::vector<double>& v) {

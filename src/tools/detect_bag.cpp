@@ -105,20 +105,9 @@ Options parseArgs(int argc, char** argv) {
   app.add_flag_function(
       "--crop", [&o](int64_t) { o.shortcuts.emplace_back("crop_depth", "true"); },
       "send each frame's depth cropped to its boxes' frustum (--param crop_depth=true)");
-  app.add_option_function<std::vector<std::string>>(
-         "--param",
-         [&o](const std::vector<std::string>& kvs) {
-           for (const std::string& kv : kvs) {
-             const size_t eq = kv.find('=');
-             if (eq == std::string::npos || eq == 0)
-               throw CLI::ValidationError("--param", "expected KEY=VALUE, got '" + kv + "'");
-             checkParam("--param", kv.substr(0, eq), kv.substr(eq + 1));
-             o.params.emplace_back(kv.substr(0, eq), kv.substr(eq + 1));
-           }
-         },
-         "set one pipe_detector parameter, e.g. confidence_threshold=0.3 (repeatable)")
-      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
-      ->option_text("KEY=VALUE");
+  tools::addKeyValueOption(app, "--param", &o.params, checkParam,
+                           "set one pipe_detector parameter, e.g. confidence_threshold=0.3 "
+                           "(repeatable)");
   app.add_option("--camera", o.cameras,
                  "only this camera (repeatable; default: every camera with colour topics)")
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
