@@ -527,6 +527,75 @@ TEST(Instances, ClustersAreConnectedGroupsLargestFirst) {
   EXPECT_EQ(euclideanClusters(pts, 1.0, 20).size(), 2u);  // the blobs join
 }
 
+/// Points of a lying joint (radius 84 mm, axis along x at height z_axis) on its upper and side
+/// surface, 0.6 m long, around y0; with ~1 cm of depth-like noise (seeded).
+void addLyingJoint(std::vector<CloudPoint>* pts, float y0, float z_axis, std::mt19937* rng) {
+  std::uniform_real_distribution<float> x(0.0f, 0.6f), a(0.2f, 2.94f);
+  std::normal_distribution<float> n(0.0f, 0.01f);
+  for (int i = 0; i < 1500; ++i) {
+    const float t = a(*rng);
+    CloudPoint c;
+    c.p_world = Eigen::Vector3f(x(*rng), y0 + 0.084f * std::cos(t) + n(*rng),
+                                z_axis + 0.084f * std::sin(t) + n(*rng));
+    pts->push_back(c);
+  }
+}
+
+TEST(Instances, SplitAtSupportSeparatesTwoPipesOnOneCatwalk) {
+  // Two lying joints 0.4 m apart (axis to axis) on a catwalk top at z = 1.0 that spans both,
+  // with depth noise and a few loose points between them: one cluster, split into two.
+  std::mt19937 rng(120);
+  std::vector<CloudPoint> pts;
+  addLyingJoint(&pts, 0.0f, 1.084f, &rng);
+  addLyingJoint(&pts, 0.4f, 1.084f, &rng);
+  const size_t joints = pts.size();
+  std::uniform_real_distribution<float> ux(-0.1f, 0.7f), uy(-0.3f, 0.7f);
+  std::normal_distribution<float> n(0.0f, 0.01f);
+  for (int i = 0; i < 2500; ++i) {
+    CloudPoint c;
+    c.p_world = Eigen::Vector3f(ux(rng), uy(rng), 1.0f + n(rng));
+    pts.push_back(c);
+  }
+  for (int i = 0; i < 10; ++i) {  // loose points bridging the gap (flying pixels)
+    CloudPoint c;
+    c.p_world = Eigen::Vector3f(0.3f, 0.1f + 0.02f * i, 1.1f);
+    pts.push_back(c);
+  }
+  EstimatorConfig::AxisFit ac;
+  const auto joined = euclideanClusters(pts, 0.08, 50);
+  ASSERT_EQ(joined.size(), 1u) << "seed 120: the catwalk should join the joints";
+  const auto parts = splitAtSupport(pts, joined, 0.08, 50, 0.168, ac);
+  ASSERT_EQ(parts.size(), 2u) << "seed 120";
+  for (const auto& part : parts) {
+    size_t left = 0, right = 0;  // joint points of the pipe at y = 0 and at y = 0.4
+    for (size_t i : part)
+      if (i < joints) (i < joints / 2 ? left : right) += 1;
+    EXPECT_TRUE(left == 0 || right == 0) << "a part holds both joints (seed 120)";
+    EXPECT_GT(left + right, joints / 2 * 9 / 10) << "a joint lost its points (seed 120)";
+    EXPECT_TRUE(std::is_sorted(part.begin(), part.end()));
+  }
+  EXPECT_EQ(splitAtSupport(pts, joined, 0.08, 50, 0.168, ac), parts);  // deterministic
+  // Parts nearer than min_separation are one joint: the cluster stays whole.
+  EXPECT_EQ(splitAtSupport(pts, joined, 0.08, 50, 0.5, ac), joined);
+}
+
+TEST(Instances, SplitAtSupportKeepsOneJointOnTheFloorWhole) {
+  std::mt19937 rng(121);
+  std::vector<CloudPoint> pts;
+  addLyingJoint(&pts, 0.0f, 1.084f, &rng);
+  std::uniform_real_distribution<float> ux(-0.1f, 0.7f), uy(-0.3f, 0.3f);
+  std::normal_distribution<float> n(0.0f, 0.01f);
+  for (int i = 0; i < 1500; ++i) {
+    CloudPoint c;
+    c.p_world = Eigen::Vector3f(ux(rng), uy(rng), 1.0f + n(rng));
+    pts.push_back(c);
+  }
+  EstimatorConfig::AxisFit ac;
+  const auto clusters = euclideanClusters(pts, 0.08, 50);
+  ASSERT_EQ(clusters.size(), 1u);
+  EXPECT_EQ(splitAtSupport(pts, clusters, 0.08, 50, 0.168, ac), clusters) << "seed 121";
+}
+
 TEST(Instances, ChoiceByMeanCostWithIncumbentAmbiguityAndAbsentBetterOne) {
   const EstimatorConfig::Instances ic;  // margin 0.04, 3 decisions, 30 averaged, 3 s memory
   const Eigen::Vector3d a(1, 1, 1), b(2, 1, 1);

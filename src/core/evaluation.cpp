@@ -203,6 +203,7 @@ InstanceEvaluation evaluateInstances(const TrueEnds& truth, const std::vector<Re
       n_true += t->size();
       for (size_t j = 0; j < t->size(); ++j) {
         ++ev.end_cycles;
+        ++ev.per_end[{l, j}].first;
         const ReportedEnd* best = nullptr;
         double best_d = match_distance;
         for (const ReportedEnd* r : reps)
@@ -210,6 +211,7 @@ InstanceEvaluation evaluateInstances(const TrueEnds& truth, const std::vector<Re
             best_d = (r->origin - (*t)[j]).norm(), best = r;
         if (!best) continue;
         ++ev.reported;
+        ++ev.per_end[{l, j}].second;
         ev.id_truth[best->id].insert({l, j});
         auto it = last.find({l, j});
         if (it != last.end() && it->second.second + 1 == cycle) {

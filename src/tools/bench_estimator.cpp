@@ -324,6 +324,16 @@ void reportInstances(const BenchOptions& o, const InstanceEvaluation& ev) {
             << ev.mixed_ids << " ids on more than one end; " << ev.stray
             << " reports off every end of their label; " << ev.near_other
             << " within 0.2 m of another end\n";
+  std::cout << "every end, reported per true end (label #index):";
+  for (const auto& [end, n] : ev.per_end)
+    std::cout << " " << labelName(static_cast<EndLabel>(end.first)) << " #" << end.second << " "
+              << 100 * share(n.second, n.first) << " %";
+  std::cout << "\n";
+  std::cout << "every end, reported per true end (label #index):";
+  for (const auto& [end, n] : ev.per_end)
+    std::cout << " " << labelName(static_cast<EndLabel>(end.first)) << " #" << end.second << " "
+              << 100 * share(n.second, n.first) << " %";
+  std::cout << "\n";
   std::cout << "INSTANCES label=" << (o.label.empty() ? o.bag_path : o.label)
             << " true_ends=" << ev.true_ends << " reported=" << share(ev.reported, ev.end_cycles)
             << " id_kept=" << share(ev.id_kept, ev.id_pairs) << " id_pairs=" << ev.id_pairs

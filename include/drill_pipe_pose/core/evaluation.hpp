@@ -104,6 +104,8 @@ struct InstanceEvaluation {
   size_t true_ends = 0;     ///< true ends per cycle (the most seen)
   size_t end_cycles = 0;    ///< (cycle, true end) pairs
   size_t reported = 0;      ///< ...with a report of its label within match_distance
+  /// Per true end (label, index in the simulator's order): its cycles and those reported.
+  std::map<std::pair<int, size_t>, std::pair<size_t, size_t>> per_end;
   size_t id_pairs = 0;      ///< consecutive cycles in which one true end was reported
   size_t id_kept = 0;       ///< ...under the same id
   size_t mixed_ids = 0;     ///< ids reported on more than one true end

@@ -101,6 +101,8 @@ ParamTable<EstimatorConfig> makeEstimatorTable() {
 
       P("instances/cluster_tolerance", instances.cluster_tolerance, "m", positive(),
         "grid cell edge of the clustering into candidate ends"),
+      P("instances/split_at_support", instances.split_at_support, "", anyValue(),
+        "split a cluster that a level support (floor, catwalk) joins into its ends"),
       P("instances/max_instances", instances.max_instances, "", atLeast(1),
         "clusters decided per cycle"),
       P("instances/max_other_ends", instances.max_other_ends, "", atLeast(0),

@@ -4,6 +4,8 @@
 #include <limits>
 #include <set>
 #include <sstream>
+#include <tuple>
+#include <utility>
 
 #include "instance_fit.hpp"
 
@@ -19,6 +21,10 @@ std::vector<std::vector<size_t>> instanceClusters(const CycleContext& ctx, int l
   const EstimatorConfig& config = ctx.config;
   std::vector<std::vector<size_t>> clusters = euclideanClusters(
       carved, config.instances.cluster_tolerance, config.axis_fit.min_points);
+  if (config.instances.split_at_support)
+    clusters = splitAtSupport(carved, std::move(clusters), config.instances.cluster_tolerance,
+                              config.axis_fit.min_points, 2 * ctx.models.joint_radius[l],
+                              config.axis_fit);
   int with_label = 0;
   for (const auto& cam : ctx.cams) with_label += cam.has_label[l] ? 1 : 0;
   const size_t need = static_cast<size_t>(std::min(config.carving.min_cameras, with_label));
@@ -51,6 +57,41 @@ int trackedCluster(const CycleContext& ctx, const Track& tr,
   }
   const double gate = config.instances.track_gate;
   return best_d2 <= gate * gate ? static_cast<int>(best_k) : -1;
+}
+
+/// The clusters the label's other ends follow: (other end, cluster) pairs, each continuing
+/// track paired with a cluster not `taken` that has a point within instances.track_gate of its
+/// prediction, the nearest pairs first.
+std::vector<std::pair<size_t, size_t>> followedClusters(
+    const CycleContext& ctx, const std::vector<OtherEnd>& ends,
+    const std::vector<std::vector<size_t>>& clusters, const std::vector<CloudPoint>& carved,
+    std::vector<bool> taken) {
+  const EstimatorConfig& config = ctx.config;
+  const double gate = config.instances.track_gate;
+  std::vector<std::tuple<float, size_t, size_t>> pairs;  // (squared distance, end, cluster)
+  for (size_t s = 0; s < ends.size(); ++s) {
+    const Track& tr = ends[s].track;
+    if (!tr.continues(ctx.stamp_ns, config.tracking.max_gap)) continue;
+    const Eigen::Vector3f pred =
+        tr.predict(ctx.stamp_ns, config.tracking.max_prediction).cast<float>();
+    for (size_t k = 0; k < clusters.size(); ++k) {
+      if (taken[k]) continue;
+      float d2 = std::numeric_limits<float>::infinity();
+      for (size_t i : clusters[k]) d2 = std::min(d2, (carved[i].p_world - pred).squaredNorm());
+      if (d2 <= gate * gate) pairs.emplace_back(d2, s, k);
+    }
+  }
+  std::sort(pairs.begin(), pairs.end());
+  std::vector<bool> paired(ends.size(), false);
+  std::vector<std::pair<size_t, size_t>> out;
+  for (const auto& [d2, s, k] : pairs) {
+    if (paired[s] || taken[k]) continue;
+    paired[s] = true;
+    taken[k] = true;
+    out.emplace_back(s, k);
+  }
+  std::sort(out.begin(), out.end());  // in the ends' order
+  return out;
 }
 
 /// The label's candidate among the instances decided this cycle (`inst`; [0] is the track's
@@ -100,6 +141,42 @@ Candidate chooseCandidate(const CycleContext& ctx, int l, std::vector<Candidate>
   return cd;
 }
 
+/// In a cycle without a decision, new other ends: each cluster that no track follows (`taken`)
+/// is fitted as a new end - a pipe laid down beside the tracked one, an end whose track was lost
+/// while the label's own track went on - while the label has room for other ends. Not near a
+/// cluster whose such fit failed within tracking.max_gap: clutter that never fits would be
+/// refitted every cycle (the cluttered scene).
+void startOtherEnds(const CycleContext& ctx, int l, const std::vector<std::vector<size_t>>& clusters,
+                    const std::vector<bool>& taken, const std::vector<CloudPoint>& carved,
+                    LabelState* state, LabelTiming* timing, std::vector<OtherFit>* others) {
+  const EstimatorConfig& config = ctx.config;
+  auto& tries = state->failed_starts;
+  tries.erase(std::remove_if(tries.begin(), tries.end(),
+                             [&](const auto& t) {
+                               const double age = static_cast<double>(ctx.stamp_ns - t.second) * 1e-9;
+                               return !(age >= 0 && age <= config.tracking.max_gap);
+                             }),
+              tries.end());
+  const size_t room = 2 * static_cast<size_t>(config.instances.max_other_ends);
+  for (size_t k = 0; k < clusters.size(); ++k) {
+    if (taken[k]) continue;
+    if (state->others.size() + others->size() >= room) break;
+    std::vector<CloudPoint> pts;
+    Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+    for (size_t i : clusters[k]) pts.push_back(carved[i]), centroid += carved[i].p_world.cast<double>();
+    centroid /= static_cast<double>(pts.size());
+    bool tried = false;
+    for (const auto& t : tries)
+      tried = tried || (t.first - centroid).norm() <= config.instances.track_gate;
+    if (tried) continue;
+    Candidate c = InstanceFitter(ctx, l, pts).fit(Track(), false, timing);
+    if (c.ok && static_cast<int>(c.fit.label) == l)
+      others->push_back({-1, std::move(c)});
+    else
+      tries.emplace_back(centroid, ctx.stamp_ns);
+  }
+}
+
 }  // namespace
 
 Candidate fitLabel(const CycleContext& ctx, int l, const std::vector<CloudPoint>& raw,
@@ -141,14 +218,14 @@ Candidate fitLabel(const CycleContext& ctx, int l, const std::vector<CloudPoint>
     return cd;
   }
   const int track_k = trackedCluster(ctx, state->track, clusters, carved);
-  // The label's other ends: each continuing track follows the nearest cluster not yet taken.
+  // The label's other ends: each continuing track follows a cluster not yet taken, the nearest
+  // (track, cluster) pairs first, so that a track whose own cluster is missing this cycle does
+  // not take its neighbour's before the neighbour's track does.
   std::vector<bool> taken(clusters.size(), false);
   if (track_k >= 0) taken[static_cast<size_t>(track_k)] = true;
-  for (size_t s = 0; s < state->others.size(); ++s) {
-    const int k = trackedCluster(ctx, state->others[s].track, clusters, carved, &taken);
-    if (k < 0) continue;
-    taken[static_cast<size_t>(k)] = true;
-    others->push_back({static_cast<int>(s), InstanceFitter(ctx, l, pointsOf(static_cast<size_t>(k)))
+  for (const auto& [s, k] : followedClusters(ctx, state->others, clusters, carved, taken)) {
+    taken[k] = true;
+    others->push_back({static_cast<int>(s), InstanceFitter(ctx, l, pointsOf(k))
                                                 .fit(state->others[s].track, true, timing)});
   }
   // The instances decided this cycle: the track's (when its fit is not simply tracked: a
@@ -158,7 +235,10 @@ Candidate fitLabel(const CycleContext& ctx, int l, const std::vector<CloudPoint>
   if (track_k >= 0) {
     Candidate c = InstanceFitter(ctx, l, pointsOf(static_cast<size_t>(track_k)))
                       .fit(state->track, true, timing);
-    if (c.tracked) return c;
+    if (c.tracked) {
+      startOtherEnds(ctx, l, clusters, taken, carved, state, timing, others);
+      return c;
+    }
     inst.push_back(std::move(c));
   }
   const size_t max_instances = static_cast<size_t>(config.instances.max_instances);

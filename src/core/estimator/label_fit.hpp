@@ -3,7 +3,9 @@
 // track follows fitted first, the largest others decided, and the label's candidate chosen among
 // them (private to the estimator's sources).
 
+#include <Eigen/Core>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "candidate.hpp"
@@ -32,6 +34,9 @@ struct LabelState {
   Track track;
   std::vector<OtherEnd> others;  ///< the label's other ends (fitted with its model)
   std::vector<InstanceMemory> memory;  ///< what the decisions showed of each instance
+  /// Clusters tried as new other ends outside a decision whose fit failed: (centroid [m],
+  /// capture stamp). None near one is tried again for tracking.max_gap.
+  std::vector<std::pair<Eigen::Vector3d, int64_t>> failed_starts;
   /// Consecutive decisions whose fit took the other model against the label's last fit of its
   /// own (a label correction waits for instances.min_decisions of them).
   int flips = 0;
@@ -44,7 +49,9 @@ struct LabelState {
 /// labels run in parallel. `instances` receives the number of instances found. `others`
 /// receives the fits of the label's other ends: each continuing OtherEnd's track follows its
 /// cluster (the clusters not taken by the label's track), and a decision's valid fits that were
-/// not chosen and lie in no other track's cluster start new ones.
+/// not chosen and lie in no other track's cluster start new ones; in a cycle without a decision,
+/// every cluster no track follows is fitted as a new one (away from state->failed_starts, which
+/// it updates).
 Candidate fitLabel(const CycleContext& ctx, int label, const std::vector<CloudPoint>& raw,
                    const std::vector<CloudPoint>& carved, LabelState* state,
                    LabelTiming* timing, uint32_t* instances, std::vector<OtherFit>* others);

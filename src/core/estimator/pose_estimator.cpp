@@ -496,6 +496,14 @@ void outputOthers(std::array<std::vector<OtherFit>, kNumEnds>* fits, EstimatorSt
     LabelState& ls = state->labels[l];
     for (OtherFit& f : (*fits)[l]) {
       const Candidate& cd = f.cd;
+      // A fit that lies farther than instances.track_gate from the end's predicted origin is of
+      // another end (its own cluster missed this cycle): it never takes this end's id.
+      if (f.other >= 0) {
+        const Track& tr = ls.others[static_cast<size_t>(f.other)].track;
+        if (cd.ok && (cd.fit.origin - tr.predict(stamp_ns, config.tracking.max_prediction)).norm() >
+                         gate)
+          f.other = -1;
+      }
       const bool ok = cd.ok && static_cast<int>(cd.fit.label) == l && !duplicate(cd.fit.origin);
       if (!ok) continue;
       if (f.other < 0) {

@@ -65,20 +65,18 @@ std::vector<size_t> removeSupportPlane(const std::vector<Eigen::Vector3f>& point
   return keep;
 }
 
-bool findLevelSupport(const std::vector<Eigen::Vector3f>& points, const AxisLine& axis,
-                      double radius, const EstimatorConfig::AxisFit& config, float* height) {
-  if (points.size() < 30) return false;
+namespace {
+
+/// Among the points marked in `use`, the horizontal layer 2 plane_threshold thick with the most
+/// of them, when it holds at least plane_min_fraction of all the points, spreads by a standard
+/// deviation of at least plane_min_extent along its narrower horizontal direction, and has most
+/// of the other points above it; `height` receives its mean height.
+bool levelLayer(const std::vector<Eigen::Vector3f>& points, const std::vector<uint8_t>& use,
+                const EstimatorConfig::AxisFit& config, float* height) {
   const float thr = static_cast<float>(config.plane_threshold);
-  // The points off the joint's cylinder (by more than plane_threshold) may be a support.
-  const Eigen::Vector3f ap = axis.point.cast<float>();
-  const Eigen::Vector3f ad = axis.direction.normalized().cast<float>();
-  std::vector<uint8_t> off(points.size());
   std::vector<float> z;
-  for (size_t i = 0; i < points.size(); ++i) {
-    const Eigen::Vector3f q = points[i] - ap;
-    off[i] = std::abs((q - q.dot(ad) * ad).norm() - static_cast<float>(radius)) > thr;
-    if (off[i]) z.push_back(points[i].z());
-  }
+  for (size_t i = 0; i < points.size(); ++i)
+    if (use[i]) z.push_back(points[i].z());
   // The level layer of thickness 2 plane_threshold that holds the most of them (a sliding
   // window over the sorted heights).
   std::sort(z.begin(), z.end());
@@ -102,7 +100,7 @@ bool findLevelSupport(const std::vector<Eigen::Vector3f>& points, const AxisLine
   long above = 0;
   for (size_t i = 0; i < points.size(); ++i) {
     const Eigen::Vector3f& p = points[i];
-    if (off[i] && std::abs(p.z() - h) < thr) {
+    if (use[i] && std::abs(p.z() - h) < thr) {
       const Eigen::Vector2d q = p.head<2>().cast<double>();
       c += q;
       C += q * q.transpose();
@@ -118,6 +116,37 @@ bool findLevelSupport(const std::vector<Eigen::Vector3f>& points, const AxisLine
   if (std::sqrt(std::max(0.0, narrow)) < config.plane_min_extent) return false;
   *height = h;
   return true;
+}
+
+}  // namespace
+
+bool findLevelSupport(const std::vector<Eigen::Vector3f>& points, const AxisLine& axis,
+                      double radius, const EstimatorConfig::AxisFit& config, float* height) {
+  if (points.size() < 30) return false;
+  const float thr = static_cast<float>(config.plane_threshold);
+  // The points off the joint's cylinder (by more than plane_threshold) may be a support.
+  const Eigen::Vector3f ap = axis.point.cast<float>();
+  const Eigen::Vector3f ad = axis.direction.normalized().cast<float>();
+  std::vector<uint8_t> off(points.size());
+  for (size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3f q = points[i] - ap;
+    off[i] = std::abs((q - q.dot(ad) * ad).norm() - static_cast<float>(radius)) > thr;
+  }
+  return levelLayer(points, off, config, height);
+}
+
+std::vector<size_t> levelSupportPoints(const std::vector<Eigen::Vector3f>& points,
+                                       const EstimatorConfig::AxisFit& config) {
+  std::vector<size_t> out;
+  float h = 0;
+  if (points.size() < 30 || !levelLayer(points, std::vector<uint8_t>(points.size(), 1), config, &h))
+    return out;
+  // The layer's noisy fringe too (depth noise of a surface seen obliquely, a few centimetres at
+  // 6 m): everything up to 2 plane_threshold above its height, and below it.
+  const float top = h + 2 * static_cast<float>(config.plane_threshold);
+  for (size_t i = 0; i < points.size(); ++i)
+    if (points[i].z() < top) out.push_back(i);
+  return out;
 }
 
 }  // namespace drill_pipe_pose

@@ -110,6 +110,10 @@ struct EstimatorConfig {
     /// [m] grid cell edge (see euclideanClusters). Chosen on thesis_angled: 0.04 splits the
     /// sparse far side of an angled joint off.
     double cluster_tolerance = 0.08;
+    /// Split a cluster that a level support joins (splitAtSupport): two pipes side by side on a
+    /// catwalk share one cluster through the catwalk's top between them (catwalk_twin, seed 93:
+    /// one cluster 0.8-0.9 m wide per label in every cycle).
+    bool split_at_support = true;
     int max_instances = 3;            ///< clusters decided (the track's and the largest others)
     /// Other ends (several pipes at once) each label follows besides its own, at most; 0: only
     /// the primary pair. Each costs a tracked fit per cycle.

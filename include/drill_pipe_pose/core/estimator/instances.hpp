@@ -20,6 +20,20 @@ namespace drill_pipe_pose {
 std::vector<std::vector<size_t>> euclideanClusters(const std::vector<CloudPoint>& points,
                                                    double tolerance, size_t min_points);
 
+/// `clusters` (of `points`, as euclideanClusters gives them) with each one that a level support
+/// joins split: a cluster holding a level layer (levelSupportPoints, axis_fit.plane_*: a floor or
+/// catwalk under two pipes side by side) whose other points, the loose ones left out, fall into
+/// two or more clusters of at least `min_points` with centroids at least `min_separation` [m]
+/// apart (a joint's diameter) becomes those clusters, the layer and loose points each going to
+/// the one with the nearest grid cell (a point with none in a neighbouring cell is left out). A
+/// cluster the layer does not join is returned as it is. Largest first, as euclideanClusters.
+/// Deterministic.
+std::vector<std::vector<size_t>> splitAtSupport(const std::vector<CloudPoint>& points,
+                                                std::vector<std::vector<size_t>> clusters,
+                                                double tolerance, size_t min_points,
+                                                double min_separation,
+                                                const EstimatorConfig::AxisFit& axis_fit);
+
 /// What the decisions have shown about one instance of a label (a cluster of its carved points,
 /// at one place) over the last cycles (EstimatorConfig::Instances).
 struct InstanceMemory {

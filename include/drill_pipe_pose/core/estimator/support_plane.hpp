@@ -24,4 +24,11 @@ std::vector<size_t> removeSupportPlane(const std::vector<Eigen::Vector3f>& point
 bool findLevelSupport(const std::vector<Eigen::Vector3f>& points, const AxisLine& axis,
                       double radius, const EstimatorConfig::AxisFit& config, float* height);
 
+/// The points of a level support layer among all of `points` (the layer findLevelSupport looks
+/// for, without a joint's cylinder to leave out) and of its noisy fringe: the indices of those
+/// less than 2 plane_threshold above its height, ascending; empty when there is none (or fewer
+/// than 30 points).
+std::vector<size_t> levelSupportPoints(const std::vector<Eigen::Vector3f>& points,
+                                       const EstimatorConfig::AxisFit& config);
+
 }  // namespace drill_pipe_pose
