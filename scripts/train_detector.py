@@ -903,7 +903,7 @@ def main():
     print("PipeYOLO: %.3f M parameters, %d training images, crop %d, scale %.2f-%.2f, %s budget, "
           "%d threads" % (nparams / 1e6, len(data), a.crop, a.scale_min, a.scale_max,
                           "%d-step" % a.schedule_steps if a.schedule_steps
-                          else "%.1f min" % a.minutes, a.threads))
+                          else "%g min" % a.minutes, a.threads))
     os.makedirs(a.out, exist_ok=True)
     stop = StopRequest()
     stop.install()
