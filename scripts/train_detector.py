@@ -43,7 +43,8 @@ written to a temporary file and then renamed, so a kill never leaves half a chec
 the model, the optimiser state, the epoch and step (and the image order of an unfinished epoch),
 the training time spent, the options that define the network and the schedule, the random
 generators' states and the best validation AP. It is a pickle: resume only your own files.
-    /usr/bin/python3 scripts/train_detector.py --data D/train/yolo --out D/lite --resume D/lite/pipe_yolo.ckpt
+    /usr/bin/python3 scripts/train_detector.py --data D/train/yolo --val D/val/yolo \\
+        --val-split val --out D/lite --resume D/lite/pipe_yolo.ckpt
 continues where the run stopped: the cosine schedule goes on from the time already spent, and
 the budget left is the budget less that time. Options you leave out come from the checkpoint.
 An option you give must agree with it (--lite, --width, --lr, --minutes, --schedule-steps,
@@ -824,7 +825,8 @@ def parse_args():
     ap.add_argument("--schedule-steps", type=int, metavar="N",
                     help="a budget of N steps instead of minutes: the cosine runs over steps, so a "
                          "run is repeatable (tests)")
-    ap.add_argument("--epochs", type=int, help="upper bound on epochs (default 1000; 1 with --smoke)")
+    ap.add_argument("--epochs", type=int,
+                    help="upper bound on epochs (default 1000; 1 with --smoke)")
     ap.add_argument("--batch", type=int, help="default 16; 4 with --smoke")
     ap.add_argument("--crop", type=int, help="training crop [px] (default 256; 128 with --smoke)")
     ap.add_argument("--scale-min", type=float, help="default 0.5")
