@@ -23,6 +23,8 @@ The shipped model (55 minutes on 2 cores, see models/detector/README.md):
     render_dataset --out D/val --random 16 --frames 5 --seed 2 --split val --format yolo
     /usr/bin/python3 scripts/train_detector.py --lite --data D/train/yolo --val D/val/yolo \\
         --val-split val --out D/lite --minutes 55 --eval-scale 1.0
+scripts/train_detector_full runs these three commands (D is .ws/detector_train by default). It
+skips a render that is already there and resumes the training from its checkpoint.
 CI (a few minutes at most, checks that the pipeline and the ONNX export still work):
     /usr/bin/python3 scripts/train_detector.py --smoke --lite --data SMOKE/yolo --out SMOKE/model
 
@@ -33,12 +35,34 @@ models/detector/pipe_yolo.onnx, the lite network), with the batch norms frozen (
 them into the convolutions, so each starts as the identity plus the folded bias), a lower learning
 rate (--lr default 5e-4) and a 10-minute default budget. Mix in some of the original renders
 (--data-extra) to keep what the model knew.
+
+Checkpoints and resume. The run writes OUT/NAME.ckpt (default pipe_yolo.ckpt) at the end of each
+epoch, when the budget ends, and on SIGINT or SIGTERM. On a signal it finishes the step, saves
+and exits with status 128 + the signal's number; a second signal stops at once. The file is
+written to a temporary file and then renamed, so a kill never leaves half a checkpoint. It holds
+the model, the optimiser state, the epoch and step (and the image order of an unfinished epoch),
+the training time spent, the options that define the network and the schedule, the random
+generators' states and the best validation AP. It is a pickle: resume only your own files.
+    /usr/bin/python3 scripts/train_detector.py --data D/train/yolo --val D/val/yolo \\
+        --val-split val --out D/lite --resume D/lite/pipe_yolo.ckpt
+continues where the run stopped: the cosine schedule goes on from the time already spent, and
+the budget left is the budget less that time. Options you leave out come from the checkpoint.
+An option you give must agree with it (--lite, --width, --lr, --minutes, --schedule-steps,
+--epochs, --batch, --crop, --scale-min, --scale-max, --seed, --finetune, --smoke); the run
+refuses otherwise and names the option. The training set must hold as many images as before.
+--resume X.pt with a plain state_dict (NAME.pt, also written each epoch) loads the weights only:
+the optimiser and the schedule start again, and the run prints a warning.
+--schedule-steps N sets the budget in steps, and the cosine runs over steps instead of minutes.
+With it and --threads 1, a run stopped by --stop-after-steps K and resumed ends with the same
+weights, bit for bit, as one run (test/test_train_resume.py).
 """
 
 import argparse
+import inspect
 import math
 import os
 import random
+import signal
 import sys
 import time
 
@@ -389,19 +413,22 @@ def evaluate(model, items, scale, nc, limit=None):
 
 # --------------------------------------------------------------------------------------------
 def export_onnx(model, path, size):
+    """Writes `path` (through a temporary file, so it exists only once it is whole and checked)."""
     model.eval()
     dummy = torch.zeros(1, 3, size[1], size[0])
-    torch.onnx.export(model, dummy, path, opset_version=OPSET, input_names=["images"],
+    tmp = path + ".tmp"
+    torch.onnx.export(model, dummy, tmp, opset_version=OPSET, input_names=["images"],
                       output_names=["output"], do_constant_folding=True)
     model.train()
     # Check that OpenCV's importer reads it and that it runs at another input size too.
-    net = cv2.dnn.readNetFromONNX(path)
+    net = cv2.dnn.readNetFromONNX(tmp)
     for w, h in (size, (size[0] + 64, size[1] + 32)):
         net.setInput(np.zeros((1, 3, h, w), np.float32))
         out = net.forward()
         if out.shape != (1, 5 + len(CLASSES), h // STRIDE, w // STRIDE):
             sys.exit("train_detector: OpenCV runs %s at %dx%d with output %s, expected %s" %
                      (path, w, h, out.shape, (1, 5 + len(CLASSES), h // STRIDE, w // STRIDE)))
+    os.replace(tmp, path)
     print("exported %s (opset %d, %.2f MB), OpenCV %s reads it" %
           (path, OPSET, os.path.getsize(path) / 1e6, cv2.__version__))
 
@@ -477,10 +504,308 @@ def set_training(model, freeze_bn):
                 m.eval()
 
 
-def main():
+def build_model(a):
+    if a.lite:
+        return PipeYOLO(len(CLASSES), 0.5, s4_residual=False, p8_convs=1)
+    return PipeYOLO(len(CLASSES), a.width)
+
+
+# --------------------------------------------------------------------------------------------
+# Checkpoints: <out>/<name>.ckpt, written at the end of each epoch, when the budget ends, at
+# --stop-after-steps and on SIGINT/SIGTERM. --resume continues from one exactly where it stopped.
+CKPT_FORMAT = "drill_pipe_pose train_detector checkpoint"
+CKPT_VERSION = 1
+# The options that define the network, the schedule and the data order. A resumed run takes them
+# from its checkpoint; one given on the command line must agree with it.
+RUN_FIELDS = ("finetune", "lite", "width", "smoke", "lr", "schedule_steps", "minutes", "epochs",
+              "batch", "crop", "scale_min", "scale_max", "seed")
+CKPT_FIELDS = ("format", "version", "model", "optimizer", "epoch", "epoch_step", "order", "step",
+               "spent_s", "finished", "running_loss", "args", "n_images", "rng", "best_val_ap",
+               "best_val_epoch")
+
+
+class TrainState:
+    """Where training stands: what a checkpoint holds besides the model, the optimiser, the
+    run's options and the random generators."""
+
+    def __init__(self):
+        self.epoch = 0            # the epoch to continue
+        self.epoch_step = 0       # its steps done (0: not started)
+        self.order = None         # its image order, once started
+        self.step = 0             # steps done in all
+        self.spent_s = 0.0        # training time spent [s]: the cosine's clock in minutes mode
+        self.finished = False     # the budget (or --epochs) is used up
+        self.running_loss = [0.0, 0.0, 0.0]  # this epoch's box, obj, cls loss sums (progress)
+        self.best_val_ap = None   # the best validation AP@0.5 (mean over the classes)
+        self.best_val_epoch = None
+
+
+def run_default(field, a):
+    """The default of a run-defining option (RUN_FIELDS), given those resolved before it."""
+    if field in ("finetune", "smoke", "schedule_steps"):
+        return None if field == "schedule_steps" else False
+    if field == "lite":
+        return bool(a.finetune)
+    if field == "width":
+        return 0.5 if a.lite else 1.0
+    if field == "lr":
+        return 5e-4 if a.finetune else 2e-3
+    if field == "minutes":  # no minutes budget when --schedule-steps sets one in steps
+        return None if a.schedule_steps else 5.0 if a.smoke else 10.0 if a.finetune else 45.0
+    return {"epochs": 1 if a.smoke else 1000, "batch": 4 if a.smoke else 16,
+            "crop": 128 if a.smoke else 256, "scale_min": 0.5, "scale_max": 1.3, "seed": 0}[field]
+
+
+def show_option(field, value):
+    """How the command line spells a run-defining option's value: --lite, no --lite, --crop 64."""
+    opt = "--" + field.replace("_", "-")
+    if value is None or isinstance(value, bool):
+        return opt if value else "no " + opt
+    return "%s %s" % (opt, value)
+
+
+def resolve_run_args(a, saved, ckpt_path):
+    """Fills the run-defining options (None: not given): from the checkpoint's run when resuming
+    (one given must agree with it), else their defaults."""
+    for f in RUN_FIELDS:
+        given = getattr(a, f)
+        if saved is not None:
+            if f not in saved:
+                sys.exit("train_detector: --resume %s: the checkpoint's options lack %s" %
+                         (ckpt_path, show_option(f, True)))
+            if given is not None and given != saved[f]:
+                sys.exit("train_detector: --resume %s: %s contradicts the checkpoint's run (%s); "
+                         "leave the option out to take the checkpoint's, or start a new run "
+                         "without --resume" % (ckpt_path, show_option(f, given),
+                                               show_option(f, saved[f])))
+            setattr(a, f, saved[f])
+        elif given is None:
+            setattr(a, f, run_default(f, a))
+    if a.lite and a.width != 0.5:
+        sys.exit("train_detector: --width %s: the lite network's width is 0.5 (leave --width out "
+                 "with --lite)" % a.width)
+    if a.finetune and not a.lite:
+        sys.exit("train_detector: --finetune trains the lite network (the shipped one); "
+                 "the checkpoint's options say otherwise")
+
+
+def rng_states(rng):
+    """The random generators' states: Python's, numpy's (the augmentation noise), torch's and the
+    data-order one (`rng`: shuffling, crops, jitter)."""
+    kind, keys, pos, has_gauss, gauss = np.random.get_state()
+    return {"python": random.getstate(), "numpy": (kind, keys.tolist(), pos, has_gauss, gauss),
+            "torch": torch.get_rng_state(), "data_order": rng.getstate()}
+
+
+def set_rng_states(states, rng):
+    random.setstate(states["python"])
+    kind, keys, pos, has_gauss, gauss = states["numpy"]
+    np.random.set_state((kind, np.array(keys, dtype=np.uint32), pos, has_gauss, gauss))
+    torch.set_rng_state(states["torch"])
+    rng.setstate(states["data_order"])
+
+
+def save_atomic(obj, path):
+    """torch.save to a temporary file, then renamed over `path`: a kill mid-write leaves the
+    previous file whole."""
+    tmp = path + ".tmp"
+    with open(tmp, "wb") as f:
+        torch.save(obj, f)
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(tmp, path)
+
+
+def save_checkpoint(path, a, model, opt, st, n_images, rng):
+    ck = {"format": CKPT_FORMAT, "version": CKPT_VERSION, "model": model.state_dict(),
+          "optimizer": opt.state_dict(), "args": {f: getattr(a, f) for f in RUN_FIELDS},
+          "n_images": n_images, "rng": rng_states(rng)}
+    ck.update(vars(st))
+    save_atomic(ck, path)
+
+
+def load_resume_file(path):
+    """(checkpoint, None) for a checkpoint of this script, (None, state_dict) for a plain weights
+    file (<name>.pt, or a checkpoint from before full resume)."""
+    if not os.path.isfile(path):
+        sys.exit("train_detector: --resume %s: no such file" % path)
+    # A checkpoint is a pickle (numpy's generator state, the optimiser's floats): resume only
+    # files of your own. torch >= 2.6 would refuse it by default.
+    kw = {"weights_only": False} if "weights_only" in inspect.signature(torch.load).parameters \
+        else {}
+    try:
+        obj = torch.load(path, map_location="cpu", **kw)
+    except Exception as e:  # noqa: BLE001 (any reader error: the message names the file)
+        sys.exit("train_detector: --resume %s: torch cannot read it (%s)" % (path, e))
+    if isinstance(obj, dict) and obj.get("format") == CKPT_FORMAT:
+        if obj.get("version") != CKPT_VERSION:
+            sys.exit("train_detector: --resume %s: checkpoint version %s, this script reads %d" %
+                     (path, obj.get("version"), CKPT_VERSION))
+        missing = [f for f in CKPT_FIELDS if f not in obj]
+        if missing:
+            sys.exit("train_detector: --resume %s: the checkpoint lacks the field(s) %s" %
+                     (path, ", ".join(missing)))
+        return obj, None
+    if isinstance(obj, dict) and obj and all(torch.is_tensor(v) for v in obj.values()):
+        return None, obj
+    sys.exit("train_detector: --resume %s: neither a checkpoint of this script (<name>.ckpt) nor a "
+             "model state_dict (<name>.pt)" % path)
+
+
+def check_weights_fit(model, weights, path):
+    """Exits with a short summary when a state_dict's tensors are not this network's."""
+    own = model.state_dict()
+    missing = [k for k in own if k not in weights]
+    extra = [k for k in weights if k not in own]
+    shape = [k for k in own if k in weights and tuple(weights[k].shape) != tuple(own[k].shape)]
+    if missing or extra or shape:
+        first = ("; first: %s is %s there, %s here" % (shape[0], tuple(weights[shape[0]].shape),
+                                                      tuple(own[shape[0]].shape)) if shape else "")
+        sys.exit("train_detector: --resume %s: its weights do not fit this network (%d tensors "
+                 "missing, %d unexpected, %d of another shape%s); was it trained with another "
+                 "--lite/--width?" % (path, len(missing), len(extra), len(shape), first))
+
+
+def budget_text(a, st):
+    if a.schedule_steps:
+        return "%d of %d scheduled steps done, %.1f min spent" % (st.step, a.schedule_steps,
+                                                                  st.spent_s / 60)
+    return "%.1f of %.1f min spent" % (st.spent_s / 60, a.minutes)
+
+
+def restore(ck, path, a, model, opt, rng):
+    """Model, optimiser, random generators and the training state from checkpoint `ck`."""
+    model.load_state_dict(ck["model"])
+    opt.load_state_dict(ck["optimizer"])
+    set_rng_states(ck["rng"], rng)
+    st = TrainState()
+    for k in vars(st):
+        setattr(st, k, ck[k])
+    print("resumed from epoch %d step %d, %s%s (%s)" %
+          (st.epoch, st.step, budget_text(a, st),
+           ": its run is complete, nothing left to train" if st.finished else "", path),
+          flush=True)
+    return st
+
+
+# --------------------------------------------------------------------------------------------
+# Training
+class StopRequest:
+    """SIGINT/SIGTERM: the step in progress finishes, the checkpoint is saved and the run exits
+    with status 128 + the signal's number. A second signal stops at once (the checkpoint file is
+    only ever replaced whole)."""
+
+    def __init__(self):
+        self.signum = None
+
+    def install(self):
+        for s in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(s, self._handle)
+
+    def _handle(self, signum, _frame):
+        self.signum = signum
+        signal.signal(signum, signal.SIG_DFL)
+
+
+def learning_rate(a, step, spent_s):
+    """Linear warm-up over the first 100 steps, then a cosine from --lr down to 5 % of it over the
+    budget: --schedule-steps steps, or else --minutes of training time."""
+    frac = step / a.schedule_steps if a.schedule_steps else spent_s / (a.minutes * 60.0)
+    frac = min(1.0, frac)
+    warm = min(1.0, (step + 1) / 100.0)
+    return a.lr * warm * (0.05 + 0.95 * 0.5 * (1 + math.cos(math.pi * frac)))
+
+
+def budget_used(a, st):
+    if a.schedule_steps:
+        return st.step >= a.schedule_steps
+    return st.spent_s > a.minutes * 60.0
+
+
+def train_step(a, model, opt, data, st, rng, spent_s):
+    for g in opt.param_groups:
+        g["lr"] = learning_rate(a, st.step, spent_s)
+    k = st.epoch_step
+    idx = st.order[k * a.batch:(k + 1) * a.batch]
+    imgs, boxes = zip(*[data.sample(i, rng) for i in idx])
+    loss, parts = compute_loss(model, to_tensor(imgs), boxes, len(CLASSES))
+    opt.zero_grad()
+    loss.backward()
+    torch.nn.utils.clip_grad_norm_(model.parameters(), 10.0)
+    opt.step()
+    st.step += 1
+    st.epoch_step += 1
+    st.running_loss = [r + p for r, p in zip(st.running_loss, parts)]
+    if st.step % 50 == 0:
+        n = st.epoch_step
+        print("epoch %d step %d  box %.3f obj %.4f cls %.3f  lr %.2e  %.0f s (%.1f img/s)" %
+              (st.epoch, st.step, st.running_loss[0] / n, st.running_loss[1] / n,
+               st.running_loss[2] / n, opt.param_groups[0]["lr"], spent_s,
+               st.step * a.batch / max(spent_s, 1e-9)), flush=True)
+
+
+def validate(a, model, val_items, st, epoch, t0):
+    aps, ngt = evaluate(model, val_items, a.eval_scale, len(CLASSES), limit=150)
+    set_training(model, a.finetune)
+    st.spent_s = time.time() - t0
+    known = [v for v in aps if not math.isnan(v)]
+    if known and (st.best_val_ap is None or float(np.mean(known)) > st.best_val_ap):
+        st.best_val_ap, st.best_val_epoch = float(np.mean(known)), epoch
+    print("epoch %d: validation AP@0.5 %s (gt %s), %.0f s; best mean %s" %
+          (epoch, " ".join("%s %.3f" % (c, ap) for c, ap in zip(CLASSES, aps)), ngt, st.spent_s,
+           "none" if st.best_val_ap is None else "%.3f (epoch %d)" % (st.best_val_ap,
+                                                                       st.best_val_epoch)),
+          flush=True)
+
+
+def stop_reason(a, st, stop):
+    if stop.signum is not None:
+        return signal.Signals(stop.signum).name
+    if a.stop_after_steps and st.step >= a.stop_after_steps:
+        return "--stop-after-steps %d" % a.stop_after_steps
+    return None
+
+
+def train(a, model, opt, data, val_items, st, rng, stop):
+    """Trains until the budget or --epochs is used up; exits (checkpoint saved) at
+    --stop-after-steps or on SIGINT/SIGTERM."""
+    ckpt = os.path.join(a.out, a.name + ".ckpt")
+    steps_per_epoch = max(1, len(data) // a.batch)
+    t0 = time.time() - st.spent_s  # time.time() - t0: the training time spent, resumes included
+    while not st.finished:
+        if st.epoch >= a.epochs:
+            st.finished = True
+            break
+        epoch = st.epoch
+        if st.epoch_step == 0:
+            st.order = list(range(len(data)))
+            rng.shuffle(st.order)
+            st.running_loss = [0.0, 0.0, 0.0]
+        while (st.epoch_step < steps_per_epoch and not st.finished
+               and stop_reason(a, st, stop) is None):
+            train_step(a, model, opt, data, st, rng, time.time() - t0)
+            st.spent_s = time.time() - t0
+            st.finished = budget_used(a, st)
+        epoch_done = st.epoch_step >= steps_per_epoch
+        if epoch_done or st.finished:
+            save_atomic(model.state_dict(), os.path.join(a.out, a.name + ".pt"))
+            if val_items and (st.finished or epoch % 3 == 2):
+                validate(a, model, val_items, st, epoch, t0)
+        if epoch_done:
+            st.epoch, st.epoch_step, st.order = epoch + 1, 0, None
+            st.finished = st.finished or st.epoch >= a.epochs
+        save_checkpoint(ckpt, a, model, opt, st, len(data), rng)
+        why = stop_reason(a, st, stop)
+        if why:
+            print("stopped (%s) at epoch %d step %d, %s: checkpoint %s; continue with --resume %s"
+                  % (why, st.epoch, st.step, budget_text(a, st), ckpt, ckpt), flush=True)
+            sys.exit(128 + stop.signum if stop.signum is not None else 0)
+
+
+def parse_args():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     ap.add_argument("--data", help="YOLO dataset root (images/, labels/)")
-    ap.add_argument("--finetune", metavar="DATA",
+    ap.add_argument("--finetune", metavar="DATA", dest="finetune_data",
                     help="fine-tune the shipped model (--init-onnx) on this YOLO dataset root "
                          "(label_from_poses' DIR/yolo)")
     ap.add_argument("--init-onnx", default=os.path.join(os.path.dirname(os.path.abspath(__file__)),
@@ -492,117 +817,107 @@ def main():
     ap.add_argument("--split", default="train")
     ap.add_argument("--val", help="YOLO dataset root for validation (default: none)")
     ap.add_argument("--val-split", default="val")
-    ap.add_argument("--out", required=True, help="output folder for pipe_yolo.onnx / .pt")
+    ap.add_argument("--out", required=True, help="output folder for pipe_yolo.onnx / .pt / .ckpt")
     ap.add_argument("--name", default="pipe_yolo")
-    ap.add_argument("--minutes", type=float, default=None,
-                    help="training time budget [min] (default 45; 10 with --finetune)")
-    ap.add_argument("--epochs", type=int, default=1000, help="upper bound on epochs")
-    ap.add_argument("--batch", type=int, default=16)
-    ap.add_argument("--crop", type=int, default=256, help="training crop [px]")
-    ap.add_argument("--scale-min", type=float, default=0.5)
-    ap.add_argument("--scale-max", type=float, default=1.3)
+    ap.add_argument("--minutes", type=float,
+                    help="training time budget [min] (default 45; 10 with --finetune; 5 with "
+                         "--smoke)")
+    ap.add_argument("--schedule-steps", type=int, metavar="N",
+                    help="a budget of N steps instead of minutes: the cosine runs over steps, so a "
+                         "run is repeatable (tests)")
+    ap.add_argument("--epochs", type=int,
+                    help="upper bound on epochs (default 1000; 1 with --smoke)")
+    ap.add_argument("--batch", type=int, help="default 16; 4 with --smoke")
+    ap.add_argument("--crop", type=int, help="training crop [px] (default 256; 128 with --smoke)")
+    ap.add_argument("--scale-min", type=float, help="default 0.5")
+    ap.add_argument("--scale-max", type=float, help="default 1.3")
     ap.add_argument("--eval-scale", type=float, default=0.667,
                     help="image scale for the quick validation mAP (1.0: the node's default "
                          "native-size input; 0.667: qHD -> 640 px wide)")
-    ap.add_argument("--width", type=float, default=1.0, help="channel width multiplier")
-    ap.add_argument("--lite", action="store_true",
+    ap.add_argument("--width", type=float, help="channel width multiplier (default 1.0)")
+    ap.add_argument("--lite", action="store_true", default=None,
                     help="the lite network: --width 0.5, no stride-4 residual, one stride-8 conv")
-    ap.add_argument("--lr", type=float, default=None, help="learning rate (default 2e-3; 5e-4 "
-                                                           "with --finetune)")
+    ap.add_argument("--lr", type=float, help="learning rate (default 2e-3; 5e-4 with --finetune)")
     ap.add_argument("--threads", type=int, default=2)
-    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--seed", type=int, help="default 0")
     ap.add_argument("--export-size", default="416x416", help="ONNX input WxH (any works later)")
-    ap.add_argument("--resume", help="a .pt checkpoint to continue from")
-    ap.add_argument("--smoke", action="store_true",
+    ap.add_argument("--resume", metavar="CKPT",
+                    help="continue from a checkpoint (<out>/<name>.ckpt); a plain state_dict "
+                         "(<name>.pt) loads the weights only")
+    ap.add_argument("--stop-after-steps", type=int, metavar="K",
+                    help="save the checkpoint and exit (status 0) once K steps are done in all "
+                         "(tests)")
+    ap.add_argument("--smoke", action="store_true", default=None,
                     help="CI mode: at most 16 images, one epoch, small crops, export + OpenCV check")
     a = ap.parse_args()
-    if a.finetune:
+    a.finetune = True if a.finetune_data else None
+    if a.finetune_data:
         if a.data:
             ap.error("--finetune DATA replaces --data")
-        a.data, a.lite = a.finetune, True
+        a.data = a.finetune_data
     if not a.data:
         ap.error("--data (or --finetune) is required")
-    if a.minutes is None:
-        a.minutes = 10.0 if a.finetune else 45.0
-    if a.lr is None:
-        a.lr = 5e-4 if a.finetune else 2e-3
+    if a.minutes is not None and a.schedule_steps is not None:
+        ap.error("--schedule-steps replaces --minutes")
+    for name in ("schedule_steps", "stop_after_steps", "epochs", "batch", "crop"):
+        if getattr(a, name) is not None and getattr(a, name) < 1:
+            ap.error("--%s must be at least 1" % name.replace("_", "-"))
+    return a
 
-    torch.set_num_threads(max(1, a.threads))
-    random.seed(a.seed)
-    np.random.seed(a.seed)
-    torch.manual_seed(a.seed)
-    rng = random.Random(a.seed)
+
+def load_data(a, ck):
     items = read_split(a.data, a.split)
     if a.finetune and a.data_extra:
         items += read_split(a.data_extra, a.split)
     if a.smoke:
         items = items[:16]
-        a.epochs, a.batch, a.crop, a.minutes = 1, 4, 128, 5.0
+    if ck and ck["n_images"] != len(items):
+        sys.exit("train_detector: --resume: the training set (%s, split %s) holds %d images, the "
+                 "checkpoint's run had %d" % (a.data, a.split, len(items), ck["n_images"]))
+    return Samples(items, a.crop, a.scale_min, a.scale_max)
+
+
+def main():
+    a = parse_args()
+    ck, weights = load_resume_file(a.resume) if a.resume else (None, None)
+    resolve_run_args(a, ck["args"] if ck else None, a.resume)
+    torch.set_num_threads(max(1, a.threads))
+    random.seed(a.seed)
+    np.random.seed(a.seed)
+    torch.manual_seed(a.seed)
+    rng = random.Random(a.seed)
+    data = load_data(a, ck)
     val_items = read_split(a.val, a.val_split) if a.val else []
-    data = Samples(items, a.crop, a.scale_min, a.scale_max)
-    nc = len(CLASSES)
-    if a.lite:
-        model = PipeYOLO(nc, 0.5, s4_residual=False, p8_convs=1)
-    else:
-        model = PipeYOLO(nc, a.width)
-    if a.resume:
-        model.load_state_dict(torch.load(a.resume))
+    model = build_model(a)
+    opt = torch.optim.AdamW(model.parameters(), lr=a.lr, weight_decay=5e-4)
+    st = TrainState()
+    if ck:
+        st = restore(ck, a.resume, a, model, opt, rng)
+    elif weights is not None:
+        check_weights_fit(model, weights, a.resume)
+        model.load_state_dict(weights)
+        print("warning: --resume %s holds weights only (a state_dict): the optimiser state and the "
+              "schedule restart from step 0" % a.resume, flush=True)
     elif a.finetune:
         load_onnx_weights(model, a.init_onnx)
-    set_training(model, bool(a.finetune))
+    set_training(model, a.finetune)
     nparams = sum(p.numel() for p in model.parameters())
-    print("PipeYOLO: %.3f M parameters, %d training images, crop %d, scale %.2f-%.2f, "
-          "%.0f min budget, %d threads" % (nparams / 1e6, len(data), a.crop, a.scale_min,
-                                          a.scale_max, a.minutes, a.threads))
-    opt = torch.optim.AdamW(model.parameters(), lr=a.lr, weight_decay=5e-4)
+    print("PipeYOLO: %.3f M parameters, %d training images, crop %d, scale %.2f-%.2f, %s budget, "
+          "%d threads" % (nparams / 1e6, len(data), a.crop, a.scale_min, a.scale_max,
+                          "%d-step" % a.schedule_steps if a.schedule_steps
+                          else "%g min" % a.minutes, a.threads))
     os.makedirs(a.out, exist_ok=True)
-    budget = a.minutes * 60.0
-    t0 = time.time()
-    step = 0
-    steps_per_epoch = max(1, len(data) // a.batch)
-    done = False
-    for epoch in range(a.epochs):
-        order = list(range(len(data)))
-        rng.shuffle(order)
-        run = [0.0, 0.0, 0.0]
-        for k in range(steps_per_epoch):
-            frac = min(1.0, (time.time() - t0) / budget)
-            warm = min(1.0, (step + 1) / 100.0)
-            for g in opt.param_groups:  # warm-up, then cosine over the time budget
-                g["lr"] = a.lr * warm * (0.05 + 0.95 * 0.5 * (1 + math.cos(math.pi * frac)))
-            idx = order[k * a.batch:(k + 1) * a.batch]
-            imgs, boxes = zip(*[data.sample(i, rng) for i in idx])
-            loss, parts = compute_loss(model, to_tensor(imgs), boxes, nc)
-            opt.zero_grad()
-            loss.backward()
-            torch.nn.utils.clip_grad_norm_(model.parameters(), 10.0)
-            opt.step()
-            step += 1
-            run = [r + p for r, p in zip(run, parts)]
-            if step % 50 == 0:
-                el = time.time() - t0
-                print("epoch %d step %d  box %.3f obj %.4f cls %.3f  lr %.2e  %.0f s (%.1f img/s)" %
-                      (epoch, step, run[0] / (k + 1), run[1] / (k + 1), run[2] / (k + 1),
-                       opt.param_groups[0]["lr"], el, step * a.batch / el), flush=True)
-            if time.time() - t0 > budget:
-                done = True
-                break
-        torch.save(model.state_dict(), os.path.join(a.out, a.name + ".pt"))
-        if val_items and (done or epoch % 3 == 2):
-            aps, ngt = evaluate(model, val_items, a.eval_scale, nc, limit=150)
-            set_training(model, bool(a.finetune))
-            print("epoch %d: validation AP@0.5 %s (gt %s), %.0f s" %
-                  (epoch, " ".join("%s %.3f" % (c, ap) for c, ap in zip(CLASSES, aps)), ngt,
-                   time.time() - t0), flush=True)
-        if done:
-            break
+    stop = StopRequest()
+    stop.install()
+    print("checkpoint %s: each epoch; SIGINT/SIGTERM save it and stop" %
+          os.path.join(a.out, a.name + ".ckpt"), flush=True)
+    train(a, model, opt, data, val_items, st, rng, stop)
     w, h = (int(v) for v in a.export_size.split("x"))
     export_onnx(model, os.path.join(a.out, a.name + ".onnx"), (w, h))
-    set_training(model, bool(a.finetune))
     with open(os.path.join(a.out, "labels.txt"), "w") as f:
         f.write("# Class names of %s.onnx, in model order (one per line).\n" % a.name)
         f.write("\n".join(CLASSES) + "\n")
-    print("done in %.1f min" % ((time.time() - t0) / 60))
+    print("done: %d steps, %.1f min of training in all" % (st.step, st.spent_s / 60))
 
 
 if __name__ == "__main__":
