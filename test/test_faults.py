@@ -434,7 +434,9 @@ class FaultInjection(unittest.TestCase):
         key = "dropped: too late for its cycle"
         case = self.run_case("late", fi.Late(cam, delay=0.3, start=2.0, end=5.0))
         before = case.counter_before(cam, key, case.fault_start)
-        dt, st = self.check_diag(case, cam, lambda s, v: int(float(v[key])) > before, f"'{key}'")
+        dt, st = self.check_diag(case, cam, lambda s, v: int(float(v[key])) > before
+                                 and s.level == DiagnosticStatus.WARN and "too late" in s.message,
+                                 f"'{key}' and a WARN saying so")
         lat = case.latencies(case.fault_start + 0.5, case.fault_end)
         back = [s for s in case.status_between(case.fault_end + 0.5, case.replay_end) if cam in s.cameras_used]
         self.assertTrue(back, f"late: {cam} not used again after its frames came on time (seed {SEED})")
@@ -456,6 +458,9 @@ class FaultInjection(unittest.TestCase):
         back = [s for s in case.status_between(case.fault_end + 0.5, case.replay_end) if cam in s.cameras_used]
         self.assertTrue(back, f"tf_gone: {cam} not used again after its TF came back (seed {SEED})")
         last = case.diag_for(cam, w1=case.replay_end)[-1][1]
+        cleared = [w for w, s in case.diag_for(cam, case.fault_end) if s.level == DiagnosticStatus.OK]
+        self.assertTrue(cleared, f"tf_gone: {cam}'s /diagnostics entry never came back to OK after "
+                                 f"its TF returned; at the end: '{last.message}' (seed {SEED})")
         line = self.standard(case, cam)
         self.report(f"TF gone {cam} (2 s): '{key}' after {dt:.2f} s ('{st.message}'); used again "
                     f"after TF returned; its entry at the end: level {last.level} '{last.message}'; {line}")

@@ -101,6 +101,11 @@ class PoseEstimatorNode {
   struct Counters {
     uint64_t bad_input = 0, tf_failures = 0, received_at_last_diag = 0;
     double last_resubscribe = 0;  ///< [s] wall clock of the last re-subscription
+    /// The counts at the last /diagnostics tick, and the wall clock [s] of the last tick at which
+    /// each problem was seen: a camera's WARN says what went wrong lately, and clears.
+    uint64_t bad_at_diag = 0, tf_at_diag = 0, stale_at_diag = 0;
+    double bad_seen = -1e9, tf_seen = -1e9, late_seen = -1e9;
+    std::string late_text;  ///< the last tick's late frames, "N of M"
   };
 
   ros::Subscriber subscribe(const std::string& cam) {
@@ -462,9 +467,10 @@ class PoseEstimatorNode {
       diagnostic_msgs::DiagnosticStatus s;
       s.name = "drill_pipe_pose: camera " + cam;
       s.hardware_id = cam;
-      const double rate = static_cast<double>(st.received - cnt.received_at_last_diag) /
-                          std::max(1e-3, now - last_diag_wall_);
+      const uint64_t received = st.received - cnt.received_at_last_diag;
+      const double rate = static_cast<double>(received) / std::max(1e-3, now - last_diag_wall_);
       cnt.received_at_last_diag = st.received;
+      const std::string recent = noteRecentProblems(st, received, now, &cnt);
       if (st.received == 0) {
         s.level = diagnostic_msgs::DiagnosticStatus::ERROR;
         s.message = "no SensorFrame received yet on " + conventions::sensorFrameTopic(cam);
@@ -476,9 +482,9 @@ class PoseEstimatorNode {
         s.level = diagnostic_msgs::DiagnosticStatus::WARN;
         s.message = "disagrees with the fused fit (" + describeDrift(d) + "): moved since its " +
                     "calibration? " + (d.left_out ? "left out of the fit" : "still in the fit");
-      } else if (cnt.bad_input || cnt.tf_failures) {
+      } else if (!recent.empty()) {
         s.level = diagnostic_msgs::DiagnosticStatus::WARN;
-        s.message = "frames dropped (bad input or TF)";
+        s.message = recent;
       } else {
         s.level = diagnostic_msgs::DiagnosticStatus::OK;
         s.message = "ok";
@@ -512,6 +518,35 @@ class PoseEstimatorNode {
       ROS_WARN(
           "pose_estimator: no live camera (throttled, 10 s): is anything publishing "
           "<cam>/sensor_frame? (see /diagnostics)");
+  }
+
+  /// A camera's problems of the last kProblemHold s, as a /diagnostics message ("" when none):
+  /// TF lookups that failed, bad input, and frames too late for their cycle (at least
+  /// kLateShare of the frames since the last tick: a lagging clock or network, not one frame
+  /// delayed on a loaded machine). Updates the counts and times in `cnt`.
+  static std::string noteRecentProblems(const CameraSyncStats& st, uint64_t received, double now,
+                                        Counters* cnt) {
+    constexpr double kProblemHold = 2.0;  // [s] a WARN outlives its problem by this long
+    constexpr double kLateShare = 0.1;
+    if (cnt->tf_failures > cnt->tf_at_diag) cnt->tf_seen = now;
+    if (cnt->bad_input > cnt->bad_at_diag) cnt->bad_seen = now;
+    const uint64_t late = st.dropped_stale - cnt->stale_at_diag;
+    if (late > 0 && static_cast<double>(late) >= kLateShare * static_cast<double>(received)) {
+      cnt->late_seen = now;
+      cnt->late_text = std::to_string(late) + " of " + std::to_string(received);
+    }
+    cnt->tf_at_diag = cnt->tf_failures;
+    cnt->bad_at_diag = cnt->bad_input;
+    cnt->stale_at_diag = st.dropped_stale;
+    std::string msg;
+    auto add = [&](double seen, const std::string& what) {
+      if (now - seen <= kProblemHold) msg += (msg.empty() ? "" : "; ") + what;
+    };
+    add(cnt->tf_seen, "frames dropped: TF lookup failed (see the log)");
+    add(cnt->bad_seen, "frames dropped: bad input (see the log)");
+    add(cnt->late_seen, "frames arrive too late for their cycle (" + cnt->late_text +
+                            " in a second): a lagging clock or network?");
+    return msg;
   }
 
   /// True at most once per `period` wall-clock seconds per key. (ROS_*_THROTTLE follows
