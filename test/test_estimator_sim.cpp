@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -342,4 +343,40 @@ TEST(EstimatorSim, EveryEndOnTheDrillFloorWithItsOwnId) {
       ids += " #" + std::to_string(id) + " -> " + labelName(static_cast<EndLabel>(l)) + " " +
              std::to_string(j);
   EXPECT_EQ(ev.id_truth.size(), 3u) << "seed " << seed << ": one id per end:" << ids;
+}
+
+TEST(EstimatorSim, HandlingPointChoosesThePrimaryEnd) {
+  // drill_floor with instances/handling_point at the mousehole: the primary box end is the
+  // single's there, not the stump's (the best-fitting one without the point); the stump's is
+  // still reported, as an other end. Nothing is reported twice or on another end.
+  const uint32_t seed = 91;
+  auto simulator = makeSimulator("drill_floor", seed);
+  EstimatorConfig cfg;
+  cfg.work_zone.min = simulator->workZone().min;
+  cfg.work_zone.max = simulator->workZone().max;
+  const Eigen::Vector3d mousehole(4.694, 4.85, 0.6);  // config/scenes/drill_floor.yaml
+  cfg.instances.handling_point = {mousehole.x(), mousehole.y(), mousehole.z()};
+  PoseEstimator est(cfg);
+  const int cycles = 30;
+  int primary_valid = 0, primary_at_mousehole = 0, stump_as_other = 0;
+  std::set<uint32_t> primary_ids;
+  for (int k = 0; k < cycles; ++k) {
+    const CycleResult r = est.process(renderCycle(*simulator, k));
+    const EndEstimate& box = r.ends[0];
+    if (box.valid) {
+      ++primary_valid;
+      if ((box.T_world_end.translation() - mousehole).norm() < 0.3) {
+        ++primary_at_mousehole;
+        primary_ids.insert(box.instance_id);
+      }
+    }
+    for (const EndEstimate& e : r.others)
+      if (e.label == EndLabel::kBoxEnd && (e.T_world_end.translation() - mousehole).norm() > 0.8)
+        ++stump_as_other;
+  }
+  EXPECT_GE(primary_valid, cycles - 5) << "seed " << seed;
+  EXPECT_GE(primary_at_mousehole, primary_valid - 3)
+      << "seed " << seed << ": the primary box end should be the mousehole single's";
+  EXPECT_GE(stump_as_other, cycles / 2) << "seed " << seed << ": the stump's box end, as an other";
+  EXPECT_EQ(primary_ids.size(), 1u) << "seed " << seed << ": the primary keeps one id";
 }

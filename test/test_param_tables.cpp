@@ -119,7 +119,7 @@ TEST(ParamTables, EveryEstimatorFieldHasARow) {
         "baseline/tilt_std", "tool_joint/threads", "tool_joint/thread_height", "axis_fit/seed",
         "threads", "method", "work_zone/min"})
     EXPECT_NE(findParam(estimatorParamTable(), key), nullptr) << key;
-  EXPECT_EQ(estimatorParamTable().size(), 142u) << "a field added: add its row too";
+  EXPECT_EQ(estimatorParamTable().size(), 143u) << "a field added: add its row too";
 }
 
 TEST(ParamTables, DefaultsAreTheNodes) {
@@ -150,6 +150,15 @@ TEST(ParamTables, ValidateConfigNamesTheKeyAndRange) {
   c = EstimatorConfig();
   c.dims.tube_od = 0.2;
   EXPECT_NE(errorOf([&] { validateConfig(c); }).find("tube_od"), std::string::npos);
+  c = EstimatorConfig();
+  c.instances.handling_point = {4.7, 4.85};
+  e = errorOf([&] { validateConfig(c); });
+  EXPECT_NE(e.find("instances/handling_point has 2 values"), std::string::npos) << e;
+  c.instances.handling_point = {4.7, 4.85, std::nan("")};
+  e = errorOf([&] { validateConfig(c); });
+  EXPECT_NE(e.find("instances/handling_point"), std::string::npos) << e;
+  c.instances.handling_point = {4.7, 4.85, 0.6};
+  EXPECT_NO_THROW(validateConfig(c));
 }
 
 TEST(ApplyParam, SetsValidValues) {

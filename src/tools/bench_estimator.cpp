@@ -329,11 +329,16 @@ void reportInstances(const BenchOptions& o, const InstanceEvaluation& ev) {
     std::cout << " " << labelName(static_cast<EndLabel>(end.first)) << " #" << end.second << " "
               << 100 * share(n.second, n.first) << " %";
   std::cout << "\n";
-  std::cout << "every end, reported per true end (label #index):";
-  for (const auto& [end, n] : ev.per_end)
-    std::cout << " " << labelName(static_cast<EndLabel>(end.first)) << " #" << end.second << " "
-              << 100 * share(n.second, n.first) << " %";
-  std::cout << "\n";
+  if (ev.mixed_ids > 0) {
+    std::cout << "every end, ids on more than one end:";
+    for (const auto& [id, ends] : ev.id_truth)
+      if (ends.size() > 1) {
+        std::cout << " #" << id << " ->";
+        for (const auto& [l, j] : ends)
+          std::cout << " " << labelName(static_cast<EndLabel>(l)) << " #" << j;
+      }
+    std::cout << "\n";
+  }
   std::cout << "INSTANCES label=" << (o.label.empty() ? o.bag_path : o.label)
             << " true_ends=" << ev.true_ends << " reported=" << share(ev.reported, ev.end_cycles)
             << " id_kept=" << share(ev.id_kept, ev.id_pairs) << " id_pairs=" << ev.id_pairs

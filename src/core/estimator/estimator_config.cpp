@@ -3,6 +3,8 @@
 
 #include "drill_pipe_pose/core/estimator/estimator_config.hpp"
 
+#include <cmath>
+
 #include "drill_pipe_pose/core/errors.hpp"
 #include "drill_pipe_pose/core/estimator/estimator_params_table.hpp"
 #include "drill_pipe_pose/core/pipe_catalog.hpp"
@@ -67,6 +69,11 @@ void validateConfig(const EstimatorConfig& c) {
     if (!(c.work_zone.min[i] < c.work_zone.max[i]))
       fail("estimator config: work_zone/min[", i, "] = ", c.work_zone.min[i],
            " must be < work_zone/max[", i, "] = ", c.work_zone.max[i]);
+  if (!c.instances.handling_point.empty() && c.instances.handling_point.size() != 3)
+    fail("estimator config: instances/handling_point has ", c.instances.handling_point.size(),
+         " values: give [x, y, z] in the world frame, or [] for none");
+  for (double v : c.instances.handling_point)
+    if (!std::isfinite(v)) fail("estimator config: instances/handling_point holds ", v);
   if (c.pipe_types.empty())
     fail("estimator config: pipe_types is empty: name the pipe catalogue's entries an end may be "
          "(or [all])");

@@ -103,6 +103,9 @@ ParamTable<EstimatorConfig> makeEstimatorTable() {
         "grid cell edge of the clustering into candidate ends"),
       P("instances/split_at_support", instances.split_at_support, "", anyValue(),
         "split a cluster that a level support (floor, catwalk) joins into its ends"),
+      P("instances/handling_point", instances.handling_point, "m", anyValue(),
+        "[x, y, z] world: each label's primary end is its end nearest this point ([]: none, the "
+        "best-fitting one)"),
       P("instances/max_instances", instances.max_instances, "", atLeast(1),
         "clusters decided per cycle"),
       P("instances/max_other_ends", instances.max_other_ends, "", atLeast(0),

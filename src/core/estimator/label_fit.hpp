@@ -27,6 +27,7 @@ struct OtherEnd {
 struct OtherFit {
   int other = -1;
   Candidate cd;
+  uint32_t id = 0;  ///< for a new end: the id it keeps (a primary end that became an other)
 };
 
 /// What lives across cycles for one detected label.

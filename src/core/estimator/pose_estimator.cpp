@@ -509,7 +509,7 @@ void outputOthers(std::array<std::vector<OtherFit>, kNumEnds>* fits, EstimatorSt
       if (f.other < 0) {
         if (ls.others.size() >= static_cast<size_t>(config.instances.max_other_ends)) continue;
         ls.others.push_back(OtherEnd());
-        ls.others.back().id = state->next_id++;
+        ls.others.back().id = f.id != 0 ? f.id : state->next_id++;
         f.other = static_cast<int>(ls.others.size()) - 1;
       }
       OtherEnd& o = ls.others[static_cast<size_t>(f.other)];
@@ -541,6 +541,48 @@ void outputOthers(std::array<std::vector<OtherFit>, kNumEnds>* fits, EstimatorSt
                                      return o.track.gap(stamp_ns) > config.tracking.max_gap;
                                    }),
                     ls.others.end());
+  }
+}
+
+/// Stage "primary end" with instances.handling_point: each label's candidate and its other
+/// ends' valid fits this cycle compete; the one nearest the point becomes the candidate when
+/// it is nearer than the candidate by more than instances.track_gate (or the candidate has no
+/// fit). The candidate it replaces becomes an other end, keeping the primary's instance id when
+/// it was the primary's end.
+void choosePrimaryByHandlingPoint(std::array<Candidate, kNumEnds>* cand,
+                                  std::array<std::vector<OtherFit>, kNumEnds>* others,
+                                  const std::array<EndType, kNumEnds>& types,
+                                  const EstimatorConfig& config) {
+  const std::vector<double>& hp = config.instances.handling_point;
+  if (hp.size() != 3) return;
+  const Eigen::Vector3d point(hp[0], hp[1], hp[2]);
+  for (int l = 0; l < kNumEnds; ++l) {
+    Candidate& cd = (*cand)[l];
+    const bool own = cd.ok && static_cast<int>(cd.fit.label) == l;
+    const double current = own ? (cd.fit.origin - point).norm()
+                               : std::numeric_limits<double>::infinity();
+    int best = -1;
+    double best_d = current - config.instances.track_gate;
+    for (size_t k = 0; k < (*others)[l].size(); ++k) {
+      const Candidate& o = (*others)[l][k].cd;
+      if (!o.ok || static_cast<int>(o.fit.label) != l) continue;
+      const double d = (o.fit.origin - point).norm();
+      if (d < best_d) best_d = d, best = static_cast<int>(k);
+    }
+    if (best < 0) continue;
+    // The candidate keeps the primary's id only if it is the primary's end (a decision may
+    // have chosen another end: the nearer one is then the primary's, and keeps its id).
+    const bool was_primary = own && types[l].id != 0 &&
+                             (cd.fit.origin - types[l].last_origin).norm() <=
+                                 config.instances.track_gate;
+    OtherFit& f = (*others)[l][static_cast<size_t>(best)];
+    std::swap(cd, f.cd);
+    f.other = -1;
+    f.id = was_primary ? types[l].id : 0;
+    // It starts a track of its own: a fit tracked on the label's track carries that track's
+    // direction margin, which the new track must take (Track::follow keeps a decision's only).
+    f.cd.tracked = false;
+    if (!f.cd.ok) (*others)[l].erase((*others)[l].begin() + best);
   }
 }
 
@@ -650,6 +692,7 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
   result.timing.segmentation_ms = timing[0].segmentation_ms + timing[1].segmentation_ms;
   result.timing.registration_ms = timing[0].registration_ms + timing[1].registration_ms;
 
+  choosePrimaryByHandlingPoint(&cand, &other_fits, state.types, config_);
   const std::array<bool, kNumEnds> held = holdLabelFlips(&cand, &state.labels, stamp_ns, config_);
   updateTracks(cand, held, &state.labels, stamp_ns, config_.tracking);
   const std::array<int, kNumEnds> owner = assignEnds(cand);

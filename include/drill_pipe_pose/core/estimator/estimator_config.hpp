@@ -114,6 +114,12 @@ struct EstimatorConfig {
     /// catwalk share one cluster through the catwalk's top between them (catwalk_twin, seed 93:
     /// one cluster 0.8-0.9 m wide per label in every cycle).
     bool split_at_support = true;
+    /// [m] world point [x, y, z] where the pipe handler works (the well centre, the mousehole);
+    /// empty: none. With it, each label's primary end (box_end/pose, pin_end/pose) is the one
+    /// of its ends nearest this point among those fitted this cycle; without it, the
+    /// best-fitting one (chooseInstance). A nearer end takes the place only when it is nearer
+    /// by more than track_gate (two fits within track_gate are one end), so the choice holds.
+    std::vector<double> handling_point;
     int max_instances = 3;            ///< clusters decided (the track's and the largest others)
     /// Other ends (several pipes at once) each label follows besides its own, at most; 0: only
     /// the primary pair. Each costs a tracked fit per cycle.
