@@ -309,6 +309,7 @@ TEST(EstimatorSim, EveryEndOnTheDrillFloorWithItsOwnId) {
   cfg.work_zone.max = simulator->workZone().max;
   PoseEstimator est(cfg);
   const int cycles = 40;
+  Eigen::Vector3d last_box = Eigen::Vector3d::Zero();
   TrueEnds truth;
   std::vector<ReportedEnd> reports;
   for (int k = 0; k < cycles; ++k) {
@@ -322,6 +323,7 @@ TEST(EstimatorSim, EveryEndOnTheDrillFloorWithItsOwnId) {
     for (const auto& t : simulator->groundTruth(t_last))
       truth[static_cast<int>(t.label)][stamp].push_back(t.T_world_end.translation());
     const CycleResult r = est.process(inputs);
+    if (r.ends[0].valid) last_box = r.ends[0].T_world_end.translation();
     for (const EndEstimate& e : r.ends)
       if (e.valid) reports.push_back({stamp, e.label, e.instance_id, e.T_world_end.translation()});
     for (const EndEstimate& e : r.others) {
@@ -343,6 +345,9 @@ TEST(EstimatorSim, EveryEndOnTheDrillFloorWithItsOwnId) {
       ids += " #" + std::to_string(id) + " -> " + labelName(static_cast<EndLabel>(l)) + " " +
              std::to_string(j);
   EXPECT_EQ(ev.id_truth.size(), 3u) << "seed " << seed << ": one id per end:" << ids;
+  // The primary pair is the connection being made (instances/primary_by_standoff): the stump's
+  // box end, at the rotary table, not the single's in the mousehole 1.2 m away.
+  EXPECT_GT(last_box.y(), 5.6) << "seed " << seed << ": the primary box end is the single's";
 }
 
 TEST(EstimatorSim, HandlingPointChoosesThePrimaryEnd) {

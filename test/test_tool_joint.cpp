@@ -159,3 +159,23 @@ TEST(PipeEndFrame, CanonicalRollFollowsTheConvention) {
   T.linear() = R * Eigen::AngleAxisd(1.234, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   EXPECT_TRUE(canonicalize(T).linear().isApprox(R, 1e-12));
 }
+
+TEST(PipeEndFrame, PinInBoxOfAStandOverItsStump) {
+  // A stand's pin 0.36 m above a stump's box face, 3 cm to the side, hanging 2 deg off plumb:
+  // the pose and the origin-and-axis forms agree, whatever the roll.
+  const Eigen::Vector3d box_o(4.694, 6.05, 0.8), pin_o(4.724, 6.05, 1.164);
+  const Eigen::Vector3d box_z = Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d pin_z =
+      Eigen::AngleAxisd(2.0 * M_PI / 180.0, Eigen::Vector3d::UnitX()) * -Eigen::Vector3d::UnitZ();
+  const PinInBoxRelation r = pinInBox(box_o, box_z, pin_o, pin_z);
+  EXPECT_NEAR(r.axial_standoff, 0.364, 1e-9);
+  EXPECT_NEAR(r.lateral_offset, 0.03, 1e-9);
+  EXPECT_NEAR(r.axis_angle, 2.0 * M_PI / 180.0, 1e-9);
+  Eigen::Isometry3d T_box = canonicalPose(box_o, box_z), T_pin = canonicalPose(pin_o, pin_z);
+  T_box.linear() =
+      T_box.linear() * Eigen::AngleAxisd(0.7, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  const PinInBoxRelation q = pinInBox(T_box, T_pin);
+  EXPECT_NEAR(q.axial_standoff, r.axial_standoff, 1e-12);
+  EXPECT_NEAR(q.lateral_offset, r.lateral_offset, 1e-12);
+  EXPECT_NEAR(q.axis_angle, r.axis_angle, 1e-12);
+}

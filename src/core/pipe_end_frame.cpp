@@ -36,14 +36,18 @@ namespace drill_pipe_pose {
 
 PinInBoxRelation pinInBox(const Eigen::Isometry3d& T_world_box,
                           const Eigen::Isometry3d& T_world_pin) {
-  const Eigen::Vector3d p_box = T_world_box.inverse() * T_world_pin.translation();
-  const Eigen::Vector3d z_pin_in_box =
-      T_world_box.linear().transpose() * T_world_pin.linear().col(2);
+  return pinInBox(T_world_box.translation(), T_world_box.linear().col(2),
+                  T_world_pin.translation(), T_world_pin.linear().col(2));
+}
+
+PinInBoxRelation pinInBox(const Eigen::Vector3d& box_origin, const Eigen::Vector3d& box_z,
+                          const Eigen::Vector3d& pin_origin, const Eigen::Vector3d& pin_z) {
+  const Eigen::Vector3d d = pin_origin - box_origin;
   PinInBoxRelation r;
-  r.axial_standoff = p_box.z();
-  r.lateral_offset = p_box.head<2>().norm();
+  r.axial_standoff = d.dot(box_z);
+  r.lateral_offset = (d - r.axial_standoff * box_z).norm();
   // Made up, the pin's z points into the box: opposite to the box's z.
-  r.axis_angle = std::acos(std::clamp(-z_pin_in_box.z(), -1.0, 1.0));
+  r.axis_angle = std::acos(std::clamp(-pin_z.dot(box_z), -1.0, 1.0));
   return r;
 }
 

@@ -34,4 +34,8 @@ struct PinInBoxRelation {
 PinInBoxRelation pinInBox(const Eigen::Isometry3d& T_world_box,
                           const Eigen::Isometry3d& T_world_pin);
 
+/// The same from each end's origin and unit axis z (world).
+PinInBoxRelation pinInBox(const Eigen::Vector3d& box_origin, const Eigen::Vector3d& box_z,
+                          const Eigen::Vector3d& pin_origin, const Eigen::Vector3d& pin_z);
+
 }  // namespace drill_pipe_pose

@@ -106,6 +106,9 @@ ParamTable<EstimatorConfig> makeEstimatorTable() {
       P("instances/handling_point", instances.handling_point, "m", anyValue(),
         "[x, y, z] world: each label's primary end is its end nearest this point ([]: none, the "
         "best-fitting one)"),
+      P("instances/primary_by_standoff", instances.primary_by_standoff, "", anyValue(),
+        "without a handling_point: the primary pair is the connection being made with the "
+        "smallest stand-off, when there is one (else the best-fitting ends)"),
       P("instances/max_instances", instances.max_instances, "", atLeast(1),
         "clusters decided per cycle"),
       P("instances/max_other_ends", instances.max_other_ends, "", atLeast(0),

@@ -544,46 +544,85 @@ void outputOthers(std::array<std::vector<OtherFit>, kNumEnds>* fits, EstimatorSt
   }
 }
 
-/// Stage "primary end" with instances.handling_point: each label's candidate and its other
-/// ends' valid fits this cycle compete; the one nearest the point becomes the candidate when
-/// it is nearer than the candidate by more than instances.track_gate (or the candidate has no
-/// fit). The candidate it replaces becomes an other end, keeping the primary's instance id when
-/// it was the primary's end.
-void choosePrimaryByHandlingPoint(std::array<Candidate, kNumEnds>* cand,
-                                  std::array<std::vector<OtherFit>, kNumEnds>* others,
-                                  const std::array<EndType, kNumEnds>& types,
-                                  const EstimatorConfig& config) {
+/// Label l's other fit `k` becomes its candidate; the candidate becomes an other end (keeping
+/// the primary's instance id when it was the primary's end; dropped when it had no fit).
+void promoteOther(int l, size_t k, std::array<Candidate, kNumEnds>* cand,
+                  std::array<std::vector<OtherFit>, kNumEnds>* others,
+                  const std::array<EndType, kNumEnds>& types, const EstimatorConfig& config) {
+  Candidate& cd = (*cand)[l];
+  const bool own = cd.ok && static_cast<int>(cd.fit.label) == l;
+  // The candidate keeps the primary's id only if it is the primary's end (a decision may
+  // have chosen another end: the promoted one is then the primary's, and keeps its id).
+  const bool was_primary = own && types[l].id != 0 &&
+                           (cd.fit.origin - types[l].last_origin).norm() <=
+                               config.instances.track_gate;
+  OtherFit& f = (*others)[l][k];
+  std::swap(cd, f.cd);
+  f.other = -1;
+  f.id = was_primary ? types[l].id : 0;
+  // It starts a track of its own: a fit tracked on the label's track carries that track's
+  // direction margin, which the new track must take (Track::follow keeps a decision's only).
+  f.cd.tracked = false;
+  if (!f.cd.ok) (*others)[l].erase((*others)[l].begin() + static_cast<std::ptrdiff_t>(k));
+}
+
+/// A connection being made: the pin end hangs over the box end, their axes opposed. Generous
+/// bounds around the stabbing and drill_floor scenes' stand over its stump (lateral 0.03 m,
+/// axial 0.36 m, 0 deg): within 0.3 m of the box axis, from 0.2 m into the box to 1.5 m above
+/// its face, axes within 30 deg of opposed.
+bool isConnection(const PinInBoxRelation& r) {
+  return r.lateral_offset < 0.3 && r.axial_standoff > -0.2 && r.axial_standoff < 1.5 &&
+         r.axis_angle < 30.0 * M_PI / 180.0;
+}
+
+/// Stage "primary pair" (several pipes at once): which of each label's ends this cycle - its
+/// candidate and its other ends' valid fits - is published as box_end/pose and pin_end/pose.
+/// With instances.handling_point, each label's end nearest that point. Otherwise, with
+/// instances.primary_by_standoff, the box end and pin end of the connection being made
+/// (isConnection) with the smallest stand-off (the distance between their origins); without
+/// such a pair, the candidates (the best-fitting ends) stay. Another end takes a candidate's
+/// place only when nearer by more than instances.track_gate (two fits that close are one end),
+/// so the choice holds from cycle to cycle.
+void choosePrimaryPair(std::array<Candidate, kNumEnds>* cand,
+                       std::array<std::vector<OtherFit>, kNumEnds>* others,
+                       const std::array<EndType, kNumEnds>& types, const EstimatorConfig& config) {
+  const double gate = config.instances.track_gate;
+  const auto fitOf = [&](int l, int k) -> const Candidate* {  // k = -1: the candidate
+    const Candidate& c = k < 0 ? (*cand)[l] : (*others)[l][static_cast<size_t>(k)].cd;
+    return c.ok && static_cast<int>(c.fit.label) == l ? &c : nullptr;
+  };
   const std::vector<double>& hp = config.instances.handling_point;
-  if (hp.size() != 3) return;
-  const Eigen::Vector3d point(hp[0], hp[1], hp[2]);
-  for (int l = 0; l < kNumEnds; ++l) {
-    Candidate& cd = (*cand)[l];
-    const bool own = cd.ok && static_cast<int>(cd.fit.label) == l;
-    const double current = own ? (cd.fit.origin - point).norm()
-                               : std::numeric_limits<double>::infinity();
-    int best = -1;
-    double best_d = current - config.instances.track_gate;
-    for (size_t k = 0; k < (*others)[l].size(); ++k) {
-      const Candidate& o = (*others)[l][k].cd;
-      if (!o.ok || static_cast<int>(o.fit.label) != l) continue;
-      const double d = (o.fit.origin - point).norm();
-      if (d < best_d) best_d = d, best = static_cast<int>(k);
+  if (hp.size() == 3) {
+    const Eigen::Vector3d point(hp[0], hp[1], hp[2]);
+    for (int l = 0; l < kNumEnds; ++l) {
+      const Candidate* own = fitOf(l, -1);
+      int best = -1;
+      double best_d = own ? (own->fit.origin - point).norm() - gate
+                          : std::numeric_limits<double>::infinity();
+      for (size_t k = 0; k < (*others)[l].size(); ++k)
+        if (const Candidate* o = fitOf(l, static_cast<int>(k)))
+          if ((o->fit.origin - point).norm() < best_d)
+            best_d = (o->fit.origin - point).norm(), best = static_cast<int>(k);
+      if (best >= 0) promoteOther(l, static_cast<size_t>(best), cand, others, types, config);
     }
-    if (best < 0) continue;
-    // The candidate keeps the primary's id only if it is the primary's end (a decision may
-    // have chosen another end: the nearer one is then the primary's, and keeps its id).
-    const bool was_primary = own && types[l].id != 0 &&
-                             (cd.fit.origin - types[l].last_origin).norm() <=
-                                 config.instances.track_gate;
-    OtherFit& f = (*others)[l][static_cast<size_t>(best)];
-    std::swap(cd, f.cd);
-    f.other = -1;
-    f.id = was_primary ? types[l].id : 0;
-    // It starts a track of its own: a fit tracked on the label's track carries that track's
-    // direction margin, which the new track must take (Track::follow keeps a decision's only).
-    f.cd.tracked = false;
-    if (!f.cd.ok) (*others)[l].erase((*others)[l].begin() + best);
+    return;
   }
+  if (!config.instances.primary_by_standoff) return;
+  const auto standoff = [&](int kb, int kp) {  // infinity: not a connection being made
+    const Candidate* b = fitOf(0, kb);
+    const Candidate* p = fitOf(1, kp);
+    if (!b || !p || !isConnection(pinInBox(b->fit.origin, b->fit.z, p->fit.origin, p->fit.z)))
+      return std::numeric_limits<double>::infinity();
+    return (p->fit.origin - b->fit.origin).norm();
+  };
+  const double current = standoff(-1, -1);
+  int best_b = -1, best_p = -1;
+  double best = current - gate;
+  for (int kb = -1; kb < static_cast<int>((*others)[0].size()); ++kb)
+    for (int kp = -1; kp < static_cast<int>((*others)[1].size()); ++kp)
+      if (standoff(kb, kp) < best) best = standoff(kb, kp), best_b = kb, best_p = kp;
+  if (best_b >= 0) promoteOther(0, static_cast<size_t>(best_b), cand, others, types, config);
+  if (best_p >= 0) promoteOther(1, static_cast<size_t>(best_p), cand, others, types, config);
 }
 
 /// A box end and a pin end are made up only within one connection type: an end without a
@@ -692,7 +731,7 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
   result.timing.segmentation_ms = timing[0].segmentation_ms + timing[1].segmentation_ms;
   result.timing.registration_ms = timing[0].registration_ms + timing[1].registration_ms;
 
-  choosePrimaryByHandlingPoint(&cand, &other_fits, state.types, config_);
+  choosePrimaryPair(&cand, &other_fits, state.types, config_);
   const std::array<bool, kNumEnds> held = holdLabelFlips(&cand, &state.labels, stamp_ns, config_);
   updateTracks(cand, held, &state.labels, stamp_ns, config_.tracking);
   const std::array<int, kNumEnds> owner = assignEnds(cand);

@@ -116,10 +116,14 @@ struct EstimatorConfig {
     bool split_at_support = true;
     /// [m] world point [x, y, z] where the pipe handler works (the well centre, the mousehole);
     /// empty: none. With it, each label's primary end (box_end/pose, pin_end/pose) is the one
-    /// of its ends nearest this point among those fitted this cycle; without it, the
-    /// best-fitting one (chooseInstance). A nearer end takes the place only when it is nearer
-    /// by more than track_gate (two fits within track_gate are one end), so the choice holds.
+    /// of its ends nearest this point among those fitted this cycle. A nearer end takes the
+    /// place only when it is nearer by more than track_gate (two fits within track_gate are one
+    /// end), so the choice holds.
     std::vector<double> handling_point;
+    /// Without a handling_point: the primary pair is the box end and pin end of a connection
+    /// being made (a pin hanging over a box, axes opposed) with the smallest stand-off, when
+    /// there is one; otherwise (and when false) each label's best-fitting end (chooseInstance).
+    bool primary_by_standoff = true;
     int max_instances = 3;            ///< clusters decided (the track's and the largest others)
     /// Other ends (several pipes at once) each label follows besides its own, at most; 0: only
     /// the primary pair. Each costs a tracked fit per cycle.
