@@ -174,7 +174,8 @@ std::vector<std::vector<size_t>> splitAtSupport(const std::vector<CloudPoint>& p
   std::vector<std::vector<size_t>> out;
   bool split = false;
   for (auto& c : clusters) {
-    std::vector<std::vector<size_t>> parts = splitOne(points, c, tolerance, min_points, min_separation, axis_fit);
+    std::vector<std::vector<size_t>> parts =
+        splitOne(points, c, tolerance, min_points, min_separation, axis_fit);
     if (parts.empty()) {
       out.push_back(std::move(c));
       continue;

@@ -41,7 +41,7 @@ std::vector<std::vector<size_t>> instanceClusters(const CycleContext& ctx, int l
 /// within instances.track_gate; -1 when none.
 int trackedCluster(const CycleContext& ctx, const Track& tr,
                    const std::vector<std::vector<size_t>>& clusters,
-                   const std::vector<CloudPoint>& carved, const std::vector<bool>* taken = nullptr) {
+                   const std::vector<CloudPoint>& carved) {
   const EstimatorConfig& config = ctx.config;
   if (!tr.continues(ctx.stamp_ns, config.tracking.max_gap)) return -1;
   const Eigen::Vector3f pred =
@@ -49,7 +49,6 @@ int trackedCluster(const CycleContext& ctx, const Track& tr,
   size_t best_k = 0;
   float best_d2 = std::numeric_limits<float>::infinity();
   for (size_t k = 0; k < clusters.size(); ++k) {
-    if (taken && (*taken)[k]) continue;
     for (size_t i : clusters[k]) {
       const float d2 = (carved[i].p_world - pred).squaredNorm();
       if (d2 < best_d2) best_d2 = d2, best_k = k;
@@ -146,24 +145,27 @@ Candidate chooseCandidate(const CycleContext& ctx, int l, std::vector<Candidate>
 /// while the label's own track went on - while the label has room for other ends. Not near a
 /// cluster whose such fit failed within tracking.max_gap: clutter that never fits would be
 /// refitted every cycle (the cluttered scene).
-void startOtherEnds(const CycleContext& ctx, int l, const std::vector<std::vector<size_t>>& clusters,
+void startOtherEnds(const CycleContext& ctx, int l,
+                    const std::vector<std::vector<size_t>>& clusters,
                     const std::vector<bool>& taken, const std::vector<CloudPoint>& carved,
                     LabelState* state, LabelTiming* timing, std::vector<OtherFit>* others) {
   const EstimatorConfig& config = ctx.config;
   auto& tries = state->failed_starts;
-  tries.erase(std::remove_if(tries.begin(), tries.end(),
-                             [&](const auto& t) {
-                               const double age = static_cast<double>(ctx.stamp_ns - t.second) * 1e-9;
-                               return !(age >= 0 && age <= config.tracking.max_gap);
-                             }),
-              tries.end());
+  const auto stale = [&](const std::pair<Eigen::Vector3d, int64_t>& t) {
+    const double age = static_cast<double>(ctx.stamp_ns - t.second) * 1e-9;
+    return !(age >= 0 && age <= config.tracking.max_gap);
+  };
+  tries.erase(std::remove_if(tries.begin(), tries.end(), stale), tries.end());
   const size_t room = 2 * static_cast<size_t>(config.instances.max_other_ends);
   for (size_t k = 0; k < clusters.size(); ++k) {
     if (taken[k]) continue;
     if (state->others.size() + others->size() >= room) break;
     std::vector<CloudPoint> pts;
     Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-    for (size_t i : clusters[k]) pts.push_back(carved[i]), centroid += carved[i].p_world.cast<double>();
+    for (size_t i : clusters[k]) {
+      pts.push_back(carved[i]);
+      centroid += carved[i].p_world.cast<double>();
+    }
     centroid /= static_cast<double>(pts.size());
     bool tried = false;
     for (const auto& t : tries)
