@@ -541,6 +541,18 @@ void addLyingJoint(std::vector<CloudPoint>* pts, float y0, float z_axis, std::mt
   }
 }
 
+/// `n` points of a catwalk top at z = 1.0 (x from -0.1 to 0.7, y from y0 to y1), with ~1 cm of
+/// depth-like noise (seeded).
+void addCatwalkTop(std::vector<CloudPoint>* pts, float y0, float y1, int n, std::mt19937* rng) {
+  std::uniform_real_distribution<float> ux(-0.1f, 0.7f), uy(y0, y1);
+  std::normal_distribution<float> noise(0.0f, 0.01f);
+  for (int i = 0; i < n; ++i) {
+    CloudPoint c;
+    c.p_world = Eigen::Vector3f(ux(*rng), uy(*rng), 1.0f + noise(*rng));
+    pts->push_back(c);
+  }
+}
+
 TEST(Instances, SplitAtSupportSeparatesTwoPipesOnOneCatwalk) {
   // Two lying joints 0.4 m apart (axis to axis) on a catwalk top at z = 1.0 that spans both,
   // with depth noise and a few loose points between them: one cluster, split into two.
@@ -549,13 +561,7 @@ TEST(Instances, SplitAtSupportSeparatesTwoPipesOnOneCatwalk) {
   addLyingJoint(&pts, 0.0f, 1.084f, &rng);
   addLyingJoint(&pts, 0.4f, 1.084f, &rng);
   const size_t joints = pts.size();
-  std::uniform_real_distribution<float> ux(-0.1f, 0.7f), uy(-0.3f, 0.7f);
-  std::normal_distribution<float> n(0.0f, 0.01f);
-  for (int i = 0; i < 2500; ++i) {
-    CloudPoint c;
-    c.p_world = Eigen::Vector3f(ux(rng), uy(rng), 1.0f + n(rng));
-    pts.push_back(c);
-  }
+  addCatwalkTop(&pts, -0.3f, 0.7f, 2500, &rng);
   for (int i = 0; i < 10; ++i) {  // loose points bridging the gap (flying pixels)
     CloudPoint c;
     c.p_world = Eigen::Vector3f(0.3f, 0.1f + 0.02f * i, 1.1f);
@@ -583,13 +589,7 @@ TEST(Instances, SplitAtSupportKeepsOneJointOnTheFloorWhole) {
   std::mt19937 rng(121);
   std::vector<CloudPoint> pts;
   addLyingJoint(&pts, 0.0f, 1.084f, &rng);
-  std::uniform_real_distribution<float> ux(-0.1f, 0.7f), uy(-0.3f, 0.3f);
-  std::normal_distribution<float> n(0.0f, 0.01f);
-  for (int i = 0; i < 1500; ++i) {
-    CloudPoint c;
-    c.p_world = Eigen::Vector3f(ux(rng), uy(rng), 1.0f + n(rng));
-    pts.push_back(c);
-  }
+  addCatwalkTop(&pts, -0.3f, 0.3f, 1500, &rng);
   EstimatorConfig::AxisFit ac;
   const auto clusters = euclideanClusters(pts, 0.08, 50);
   ASSERT_EQ(clusters.size(), 1u);

@@ -48,6 +48,14 @@ std::unique_ptr<sim::RigSimulator> makeSimulator(
                            dir + "/config/scenes/" + scene + ".yaml", opt);
 }
 
+/// The estimator's defaults with the simulated scene's work zone.
+EstimatorConfig configIn(const sim::RigSimulator& simulator) {
+  EstimatorConfig cfg;
+  cfg.work_zone.min = simulator.workZone().min;
+  cfg.work_zone.max = simulator.workZone().max;
+  return cfg;
+}
+
 /// Cycle k of the simulator: one rendered frame per camera, with its published transforms.
 std::vector<CameraInput> renderCycle(sim::RigSimulator& simulator, int k) {
   std::vector<CameraInput> inputs;
@@ -68,10 +76,8 @@ SequenceStats runScenario(const std::string& scene, const std::string& profile, 
                           int cycles, EstimatorMethod method = EstimatorMethod::kOurs,
                           bool before_fit = false, bool true_depth_correction = false) {
   auto simulator = makeSimulator(scene, seed, profile, before_fit);
-  EstimatorConfig cfg;
+  EstimatorConfig cfg = configIn(*simulator);
   cfg.method = method;
-  cfg.work_zone.min = simulator->workZone().min;
-  cfg.work_zone.max = simulator->workZone().max;
   PoseEstimator est(cfg);
   const RigCalibration truth = simulator->trueRig();
   std::array<std::vector<PoseError>, kNumEnds> errors;
@@ -166,9 +172,7 @@ TEST(EstimatorOnSimulator, ThesisVerticalCalibrated) {
 // include full decisions (0, 10, 11) and tracked ones (stabbing: both ends seen).
 TEST(EstimatorOnSimulator, TwoThreadsGiveTheSameResultsAsOne) {
   auto simulator = makeSimulator("stabbing", 5);
-  EstimatorConfig cfg;
-  cfg.work_zone.min = simulator->workZone().min;
-  cfg.work_zone.max = simulator->workZone().max;
+  EstimatorConfig cfg = configIn(*simulator);
   PoseEstimator one(cfg);
   cfg.threads = 2;
   PoseEstimator two(cfg);
@@ -197,9 +201,7 @@ TEST(EstimatorOnSimulator, TwoThreadsGiveTheSameResultsAsOne) {
 // poses it gives on the full depth images, cycle by cycle.
 TEST(EstimatorOnSimulator, CroppedDepthGivesTheSamePosesAsFull) {
   auto simulator = makeSimulator("thesis_vertical", 6);
-  EstimatorConfig cfg;
-  cfg.work_zone.min = simulator->workZone().min;
-  cfg.work_zone.max = simulator->workZone().max;
+  EstimatorConfig cfg = configIn(*simulator);
   PoseEstimator on_full(cfg), on_cropped(cfg);
   int valid = 0;
   size_t full_px = 0, cropped_px = 0;
@@ -304,9 +306,7 @@ TEST(EstimatorSim, EveryEndOnTheDrillFloorWithItsOwnId) {
   // one id for the whole sequence, and never on another end's position.
   const uint32_t seed = 91;
   auto simulator = makeSimulator("drill_floor", seed);
-  EstimatorConfig cfg;
-  cfg.work_zone.min = simulator->workZone().min;
-  cfg.work_zone.max = simulator->workZone().max;
+  EstimatorConfig cfg = configIn(*simulator);
   PoseEstimator est(cfg);
   const int cycles = 40;
   Eigen::Vector3d last_box = Eigen::Vector3d::Zero();
@@ -356,9 +356,7 @@ TEST(EstimatorSim, HandlingPointChoosesThePrimaryEnd) {
   // still reported, as an other end. Nothing is reported twice or on another end.
   const uint32_t seed = 91;
   auto simulator = makeSimulator("drill_floor", seed);
-  EstimatorConfig cfg;
-  cfg.work_zone.min = simulator->workZone().min;
-  cfg.work_zone.max = simulator->workZone().max;
+  EstimatorConfig cfg = configIn(*simulator);
   const Eigen::Vector3d mousehole(4.694, 4.85, 0.6);  // config/scenes/drill_floor.yaml
   cfg.instances.handling_point = {mousehole.x(), mousehole.y(), mousehole.z()};
   PoseEstimator est(cfg);
