@@ -732,6 +732,48 @@ TEST(Instances, AnotherPipeSizeDoesNotCompeteAndANewcomerWaitsForTheOthers) {
   EXPECT_EQ(c.index, 0) << c.reason;
 }
 
+// The radii of a joint's first decisions scatter by 1-2 mm: two sizes are told apart only when
+// the means differ by more than instances.radius_difference plus their standard errors.
+// The offsets are those of cluttered seed 1's first decisions (its 5" pin end and the lying
+// 4.5" pipe beside it), whose scatter once ruled the 5" end out as "another pipe size".
+TEST(Instances, ScatteredRadiiRuleNoSizeOutUntilTheDifferenceIsClear) {
+  const EstimatorConfig::Instances ic;  // 3 decisions, radius_difference 2.5 mm
+  const Eigen::Vector3d a(1, 1, 1), b(2, 1, 1);
+  const int64_t dt = 33000000;
+  auto near = [](const Eigen::Vector3d&, double) { return size_t{100}; };
+  auto radius = [](double offset) {
+    RadiusCheck r;
+    r.ok = true;
+    r.offset = offset;
+    r.std = 0.001;
+    r.points = 200;
+    return r;
+  };
+  // A (the model's size) fits better; B measures thinner, nearer the model's radius by chance.
+  const double a_mm[] = {3.1, 1.5, 2.0}, b_mm[] = {-0.2, -2.8, -1.5};
+  std::vector<InstanceMemory> memory;
+  int64_t t = 0;
+  InstanceChoice c;
+  for (int k = 0; k < 3; ++k, t += dt)
+    c = chooseInstance(&memory,
+                       {{true, a, 1.0e-4, radius(a_mm[k] * 1e-3)},
+                        {true, b, 1.2e-4, radius(b_mm[k] * 1e-3)}},
+                       -1, t, near, 40, ic, "pin_end");
+  // Means 2.2 and -1.5 mm: 3.7 mm apart, within 2.5 mm plus two standard errors (1.8 mm).
+  EXPECT_EQ(c.index, 0) << c.reason;
+  // A clear difference is still found: B fits better, but over 20 decisions A reads 0.5 mm and
+  // B 4.5 mm thin, each scattering by 1 mm.
+  std::vector<InstanceMemory> clear;
+  for (int k = 0; k < 20; ++k, t += dt) {
+    const double wobble = (k % 2 ? 1.0 : -1.0) * 1e-3;
+    c = chooseInstance(&clear,
+                       {{true, a, 1.2e-4, radius(0.5e-3 + wobble)},
+                        {true, b, 1.0e-4, radius(-4.5e-3 - wobble)}},
+                       -1, t, near, 40, ic, "pin_end");
+  }
+  EXPECT_EQ(c.index, 0) << c.reason;
+}
+
 TEST(AxisFit, KnownAxisUnderNoiseAndOutliers) {
   for (uint32_t seed = 1; seed <= 10; ++seed) {
     SCOPED_TRACE("seed " + std::to_string(seed));

@@ -205,11 +205,20 @@ const InstanceMemory* otherSize(const InstanceMemory& entry,
                                 const std::vector<InstanceMemory>& memory,
                                 const EstimatorConfig::Instances& ic) {
   if (!(ic.radius_difference > 0) || entry.radius_samples < ic.min_decisions) return nullptr;
-  for (const InstanceMemory& o : memory)
-    if (&o != &entry && o.radius_samples >= ic.min_decisions &&
-        std::abs(o.radius_offset) < std::abs(entry.radius_offset) &&
-        std::abs(entry.radius_offset - o.radius_offset) > ic.radius_difference)
-      return &o;
+  // Squared standard error of a mean radius. A joint's first few measurements scatter by
+  // 1-2 mm (cluttered's lying 4.5" pipe read 0.2 mm and 1.5 mm under the 5" model, the 5" pin
+  // end 3.1 mm and 1.5 mm over it), so three of them can make the right size look like another.
+  auto squared_error = [](const InstanceMemory& m) {
+    return m.radius_samples > 1 ? m.radius_variance / (m.radius_samples - 1) : 0.0;
+  };
+  for (const InstanceMemory& o : memory) {
+    if (&o == &entry || o.radius_samples < ic.min_decisions ||
+        !(std::abs(o.radius_offset) < std::abs(entry.radius_offset)))
+      continue;
+    // Two standard errors: a plain ~95 % significance level, not tuned.
+    const double margin = 2.0 * std::sqrt(squared_error(entry) + squared_error(o));
+    if (std::abs(entry.radius_offset - o.radius_offset) > ic.radius_difference + margin) return &o;
+  }
   return nullptr;
 }
 
@@ -263,7 +272,10 @@ std::vector<Competitor> joinFits(std::vector<InstanceMemory>* memory_ptr,
     e.mean_cost += (fits[k].cost - e.mean_cost) / e.decisions;
     if (fits[k].radius.ok) {
       e.radius_samples = std::min(e.radius_samples + 1, ic.memory_decisions);
-      e.radius_offset += (fits[k].radius.offset - e.radius_offset) / e.radius_samples;
+      const double x = fits[k].radius.offset, before = e.radius_offset;
+      e.radius_offset += (x - before) / e.radius_samples;
+      e.radius_variance +=
+          ((x - before) * (x - e.radius_offset) - e.radius_variance) / e.radius_samples;
     }
     e.origin = fits[k].origin;
     e.stamp_ns = stamp_ns;

@@ -46,13 +46,16 @@ struct InstanceMemory {
   /// decisions that measured it (running mean, at most instances.memory_decisions).
   double radius_offset = 0.0;
   int radius_samples = 0;
+  /// Spread of those measurements (running variance [m^2], weighted as the mean).
+  double radius_variance = 0.0;
   int64_t stamp_ns = 0;  ///< the last decision's cycle
   bool chosen = false;   ///< the label's end was this instance at its last decided pose
 };
 
 /// The entry of `memory` whose tool joint shows `entry` to be another pipe size, or null: both
 /// have at least min_decisions radius measurements, the other's mean is nearer the model's
-/// radius, and the two differ by more than radius_difference (never when that is 0).
+/// radius, and the two differ by more than radius_difference plus two standard errors of the
+/// difference (from the measurements' spread; never when radius_difference is 0).
 const InstanceMemory* otherSize(const InstanceMemory& entry,
                                 const std::vector<InstanceMemory>& memory,
                                 const EstimatorConfig::Instances& config);
