@@ -8,8 +8,6 @@
 // Publishes <cam>/sensor_frame and ~debug_image (bgr8, annotated; only while subscribed).
 #include <drill_pipe_pose/SensorFrame.h>
 #include <message_filters/subscriber.h>
-#include <message_filters/sync_policies/approximate_time.h>
-#include <message_filters/synchronizer.h>
 #include <ros/package.h>
 #include <ros/ros.h>
 #include <tf2_eigen/tf2_eigen.h>
@@ -36,8 +34,6 @@ using sensor_msgs::CameraInfo;
 using sensor_msgs::CameraInfoConstPtr;
 using sensor_msgs::Image;
 using sensor_msgs::ImageConstPtr;
-using SyncPolicy =
-    message_filters::sync_policies::ApproximateTime<Image, CameraInfo, Image, CameraInfo>;
 
 class PipeDetectorNode {
  public:
@@ -75,9 +71,8 @@ class PipeDetectorNode {
     color_info_sub_.subscribe(nh_, color_info_topic_, queue);
     depth_sub_.subscribe(nh_, depth_topic_, queue);
     depth_info_sub_.subscribe(nh_, depth_info_topic_, queue);
-    sync_.reset(new message_filters::Synchronizer<SyncPolicy>(
-        SyncPolicy(std::max(queue, 5)), color_sub_, color_info_sub_, depth_sub_, depth_info_sub_));
-    sync_->setMaxIntervalDuration(ros::Duration(slop));
+    sync_ = makeDetectorSync(queue, slop);
+    sync_->connectInput(color_sub_, color_info_sub_, depth_sub_, depth_info_sub_);
     sync_->registerCallback(&PipeDetectorNode::onFrames, this);
 
     const auto& l = detector_->layout();
@@ -194,7 +189,7 @@ class PipeDetectorNode {
   ros::Publisher pub_, debug_pub_;
   message_filters::Subscriber<Image> color_sub_, depth_sub_;
   message_filters::Subscriber<CameraInfo> color_info_sub_, depth_info_sub_;
-  std::unique_ptr<message_filters::Synchronizer<SyncPolicy>> sync_;
+  std::unique_ptr<DetectorSync> sync_;
 };
 
 }  // namespace

@@ -22,8 +22,6 @@
 // Exit status 0; 1 on a bad bag, model or frame (the message names the file, topic or camera); 2
 // on a bad command line.
 #include <drill_pipe_pose/SensorFrame.h>
-#include <message_filters/sync_policies/approximate_time.h>
-#include <message_filters/synchronizer.h>
 #include <ros/package.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
@@ -51,9 +49,6 @@ using sensor_msgs::CameraInfo;
 using sensor_msgs::CameraInfoConstPtr;
 using sensor_msgs::Image;
 using sensor_msgs::ImageConstPtr;
-using SyncPolicy =
-    message_filters::sync_policies::ApproximateTime<Image, CameraInfo, Image, CameraInfo>;
-using Sync = message_filters::Synchronizer<SyncPolicy>;
 
 struct Options {
   std::string in, out, config;
@@ -210,8 +205,7 @@ class BagDetector {
       for (int i = 0; i < 4; ++i) route_[topics[i]] = {cam, i};
       colour_topics_.push_back(topics[0]);
       auto& sync = syncs_[cam];
-      sync = std::make_unique<Sync>(SyncPolicy(std::max(std::max(params.queue_size, 1), 5)));
-      sync->setMaxIntervalDuration(ros::Duration(params.sync_slop));
+      sync = makeDetectorSync(params.queue_size, params.sync_slop);
       auto& handler = handlers_[cam];
       handler = std::make_unique<Handler>(Handler{this, cam});
       sync->registerCallback(&Handler::onSet, handler.get());
@@ -251,7 +245,7 @@ class BagDetector {
         }
         continue;
       }
-      Sync& sync = *syncs_[r->second.first];
+      DetectorSync& sync = *syncs_[r->second.first];
       switch (r->second.second) {
         case 0:
           sync.add<0>(m.instantiate<Image>());
@@ -327,7 +321,7 @@ class BagDetector {
   OfflineDetector det_;
   rosbag::Bag* out_;
   std::map<std::string, std::unique_ptr<Handler>> handlers_;
-  std::map<std::string, std::unique_ptr<Sync>> syncs_;
+  std::map<std::string, std::unique_ptr<DetectorSync>> syncs_;
   std::map<std::string, std::pair<std::string, int>> route_;  ///< topic -> (camera, sync input)
   std::vector<std::string> colour_topics_;
   size_t total_ = 0, done_ = 0, written_ = 0, skipped_ = 0, bad_ = 0;

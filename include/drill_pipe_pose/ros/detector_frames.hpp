@@ -6,10 +6,14 @@
 // OfflineDetector, which adds what the node gets from its parameters and from TF.
 
 #include <geometry_msgs/TransformStamped.h>
+#include <message_filters/sync_policies/approximate_time.h>
+#include <message_filters/synchronizer.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 
+#include <algorithm>
 #include <map>
+#include <memory>
 #include <optional>
 #include <set>
 #include <string>
@@ -19,6 +23,21 @@
 #include "drill_pipe_pose/ros/tf_source.hpp"
 
 namespace drill_pipe_pose {
+
+/// How the node and detect_bag pair a camera's colour image, colour info, depth image and depth
+/// info: message_filters' ApproximateTime on the capture stamps.
+using DetectorSyncPolicy =
+    message_filters::sync_policies::ApproximateTime<sensor_msgs::Image, sensor_msgs::CameraInfo,
+                                                    sensor_msgs::Image, sensor_msgs::CameraInfo>;
+using DetectorSync = message_filters::Synchronizer<DetectorSyncPolicy>;
+
+/// A synchroniser of that pairing with the node's parameters queue_size (at least 5) and
+/// sync_slop [s]; its inputs are connected (connectInput) or fed (add<i>) by the caller.
+inline std::unique_ptr<DetectorSync> makeDetectorSync(int queue_size, double sync_slop) {
+  auto sync = std::make_unique<DetectorSync>(DetectorSyncPolicy(std::max(queue_size, 5)));
+  sync->setMaxIntervalDuration(ros::Duration(sync_slop));
+  return sync;
+}
 
 /// The SensorFrame of one synchronised set of `camera`'s messages: stamped with the colour
 /// image's capture time, frame ids and CameraInfos from the messages, the depth pixels shared
