@@ -17,25 +17,37 @@
 
 namespace drill_pipe_pose {
 
+namespace {
+
+using GridCell = std::array<int64_t, 3>;
+
+/// The cell of a grid of edge `edge` [m] that holds p.
+GridCell cellOf(const Eigen::Vector3f& p, double edge) {
+  return {{static_cast<int64_t>(std::floor(p.x() / edge)),
+           static_cast<int64_t>(std::floor(p.y() / edge)),
+           static_cast<int64_t>(std::floor(p.z() / edge))}};
+}
+
+/// A cell's hash key: 21 bits per axis (cells repeat every 2^21 edges, far beyond a work zone).
+uint64_t cellKey(const GridCell& c) {
+  return (static_cast<uint64_t>(c[0] & 0x1FFFFF) << 42) |
+         (static_cast<uint64_t>(c[1] & 0x1FFFFF) << 21) | static_cast<uint64_t>(c[2] & 0x1FFFFF);
+}
+
+}  // namespace
+
 std::vector<std::vector<size_t>> euclideanClusters(const std::vector<CloudPoint>& points,
                                                    double tolerance, size_t min_points) {
   std::vector<std::vector<size_t>> out;
   if (points.empty() || points.size() < min_points || !(tolerance > 0)) return out;
   // Cells of edge `tolerance`; two occupied cells that touch (26-neighbourhood) join.
-  auto key = [](int64_t x, int64_t y, int64_t z) {
-    return (static_cast<uint64_t>(x & 0x1FFFFF) << 42) |
-           (static_cast<uint64_t>(y & 0x1FFFFF) << 21) | static_cast<uint64_t>(z & 0x1FFFFF);
-  };
   std::unordered_map<uint64_t, int> cell_of;  // cell key -> cell index
-  std::vector<std::array<int64_t, 3>> cells;
+  std::vector<GridCell> cells;
   std::vector<int> point_cell(points.size());
   cell_of.reserve(points.size());
   for (size_t i = 0; i < points.size(); ++i) {
-    const Eigen::Vector3f& p = points[i].p_world;
-    const std::array<int64_t, 3> c{{static_cast<int64_t>(std::floor(p.x() / tolerance)),
-                                    static_cast<int64_t>(std::floor(p.y() / tolerance)),
-                                    static_cast<int64_t>(std::floor(p.z() / tolerance))}};
-    auto [it, inserted] = cell_of.emplace(key(c[0], c[1], c[2]), static_cast<int>(cells.size()));
+    const GridCell c = cellOf(points[i].p_world, tolerance);
+    auto [it, inserted] = cell_of.emplace(cellKey(c), static_cast<int>(cells.size()));
     if (inserted) cells.push_back(c);
     point_cell[i] = it->second;
   }
@@ -49,7 +61,7 @@ std::vector<std::vector<size_t>> euclideanClusters(const std::vector<CloudPoint>
     for (int dx = -1; dx <= 1; ++dx)
       for (int dy = -1; dy <= 1; ++dy)
         for (int dz = -1; dz <= 1; ++dz) {
-          auto it = cell_of.find(key(cells[k][0] + dx, cells[k][1] + dy, cells[k][2] + dz));
+          auto it = cell_of.find(cellKey({{cells[k][0] + dx, cells[k][1] + dy, cells[k][2] + dz}}));
           if (it == cell_of.end()) continue;
           const int a = find(static_cast<int>(k)), b = find(it->second);
           if (a != b) parent[std::max(a, b)] = std::min(a, b);
@@ -86,15 +98,6 @@ std::vector<std::vector<size_t>> splitOne(const std::vector<CloudPoint>& points,
   // Point density is judged in cells of half the clustering's edge (4 cm by default), chosen
   // with kDenseCell below on catwalk_twin seed 120.
   const double edge = 0.5 * tolerance;
-  auto cellOf = [](const Eigen::Vector3f& p, double e) {
-    return std::array<int64_t, 3>{{static_cast<int64_t>(std::floor(p.x() / e)),
-                                   static_cast<int64_t>(std::floor(p.y() / e)),
-                                   static_cast<int64_t>(std::floor(p.z() / e))}};
-  };
-  auto key = [](const std::array<int64_t, 3>& c) {
-    return (static_cast<uint64_t>(c[0] & 0x1FFFFF) << 42) |
-           (static_cast<uint64_t>(c[1] & 0x1FFFFF) << 21) | static_cast<uint64_t>(c[2] & 0x1FFFFF);
-  };
   // Loose points (flying pixels at depth edges, stray noise) join neighbouring cells one by one
   // and would bridge the pipes again: the split is made of the points in cells holding at least
   // kDenseCell of them, and the loose ones are assigned after. Chosen on catwalk_twin seed 120
@@ -105,9 +108,9 @@ std::vector<std::vector<size_t>> splitOne(const std::vector<CloudPoint>& points,
   for (size_t j : layer) assign_after[j] = 1;
   std::unordered_map<uint64_t, int> count;
   for (size_t j = 0; j < cluster.size(); ++j)
-    if (!assign_after[j]) ++count[key(cellOf(pts[j], edge))];
+    if (!assign_after[j]) ++count[cellKey(cellOf(pts[j], edge))];
   for (size_t j = 0; j < cluster.size(); ++j)
-    if (!assign_after[j] && count[key(cellOf(pts[j], edge))] < kDenseCell) assign_after[j] = 1;
+    if (!assign_after[j] && count[cellKey(cellOf(pts[j], edge))] < kDenseCell) assign_after[j] = 1;
   std::vector<CloudPoint> rest;
   std::vector<size_t> rest_index;  // into `points`
   for (size_t j = 0; j < cluster.size(); ++j)
@@ -136,7 +139,7 @@ std::vector<std::vector<size_t>> splitOne(const std::vector<CloudPoint>& points,
   std::unordered_map<uint64_t, Cell> cells;
   for (size_t k = 0; k < parts.size(); ++k)
     for (size_t& r : parts[k]) {
-      Cell& c = cells[key(cellOf(rest[r].p_world, tolerance))];
+      Cell& c = cells[cellKey(cellOf(rest[r].p_world, tolerance))];
       if (c.part < 0) c.part = static_cast<int>(k);
       if (c.part == static_cast<int>(k)) {  // a cell of two parts: the first part's centroid
         c.sum += rest[r].p_world;
@@ -147,13 +150,13 @@ std::vector<std::vector<size_t>> splitOne(const std::vector<CloudPoint>& points,
   for (size_t j = 0; j < cluster.size(); ++j) {
     if (!assign_after[j]) continue;
     const Eigen::Vector3f& p = pts[j];
-    const std::array<int64_t, 3> c0 = cellOf(p, tolerance);
+    const GridCell c0 = cellOf(p, tolerance);
     int best = -1;
     float best_d2 = std::numeric_limits<float>::infinity();
     for (int dx = -1; dx <= 1; ++dx)
       for (int dy = -1; dy <= 1; ++dy)
         for (int dz = -1; dz <= 1; ++dz) {
-          auto it = cells.find(key({{c0[0] + dx, c0[1] + dy, c0[2] + dz}}));
+          auto it = cells.find(cellKey({{c0[0] + dx, c0[1] + dy, c0[2] + dz}}));
           if (it == cells.end() || it->second.n == 0) continue;
           const float d2 = (it->second.sum / static_cast<float>(it->second.n) - p).squaredNorm();
           if (d2 < best_d2) best_d2 = d2, best = it->second.part;

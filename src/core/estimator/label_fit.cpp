@@ -140,6 +140,15 @@ Candidate chooseCandidate(const CycleContext& ctx, int l, std::vector<Candidate>
   return cd;
 }
 
+/// A cluster's points (indices into `carved`).
+std::vector<CloudPoint> clusterPoints(const std::vector<size_t>& cluster,
+                                      const std::vector<CloudPoint>& carved) {
+  std::vector<CloudPoint> p;
+  p.reserve(cluster.size());
+  for (size_t i : cluster) p.push_back(carved[i]);
+  return p;
+}
+
 /// In a cycle without a decision, new other ends: each cluster that no track follows (`taken`)
 /// is fitted as a new end - a pipe laid down beside the tracked one, an end whose track was lost
 /// while the label's own track went on - while the label has room for other ends. Not near a
@@ -160,12 +169,9 @@ void startOtherEnds(const CycleContext& ctx, int l,
   for (size_t k = 0; k < clusters.size(); ++k) {
     if (taken[k]) continue;
     if (state->others.size() + others->size() >= room) break;
-    std::vector<CloudPoint> pts;
+    std::vector<CloudPoint> pts = clusterPoints(clusters[k], carved);
     Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-    for (size_t i : clusters[k]) {
-      pts.push_back(carved[i]);
-      centroid += carved[i].p_world.cast<double>();
-    }
+    for (const CloudPoint& p : pts) centroid += p.p_world.cast<double>();
     centroid /= static_cast<double>(pts.size());
     bool tried = false;
     for (const auto& t : tries)
@@ -202,12 +208,7 @@ Candidate fitLabel(const CycleContext& ctx, int l, const std::vector<CloudPoint>
   }
   const auto t0 = Clock::now();
   const std::vector<std::vector<size_t>> clusters = instanceClusters(ctx, l, carved);
-  auto pointsOf = [&](size_t k) {
-    std::vector<CloudPoint> p;
-    p.reserve(clusters[k].size());
-    for (size_t i : clusters[k]) p.push_back(carved[i]);
-    return p;
-  };
+  auto pointsOf = [&](size_t k) { return clusterPoints(clusters[k], carved); };
   timing->segmentation_ms += msSince(t0);
   *instances = static_cast<uint32_t>(clusters.size());
   if (clusters.empty()) {
