@@ -209,7 +209,7 @@ const InstanceMemory* otherSize(const InstanceMemory& entry,
                                 const EstimatorConfig::Instances& ic) {
   if (!(ic.radius_difference > 0) || entry.radius_samples < ic.min_decisions) return nullptr;
   // Squared standard error of a mean radius. A joint's first few measurements scatter by
-  // 1-2 mm (cluttered's lying 4.5" pipe read 0.2 mm and 1.5 mm under the 5" model, the 5" pin
+  // 1-2 mm (cluttered's lying 4.5" pipe read 0.2 mm and 2.8 mm under the 5" model, the 5" pin
   // end 3.1 mm and 1.5 mm over it), so three of them can make the right size look like another.
   auto squared_error = [](const InstanceMemory& m) {
     return m.radius_samples > 1 ? m.radius_variance / (m.radius_samples - 1) : 0.0;
