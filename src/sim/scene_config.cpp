@@ -173,7 +173,12 @@ Trajectory parseMotion(const YAML::Node& parent, const Eigen::Isometry3d& pose,
     const std::string wr = at(w, "random_poses");
     RandomPoseSpec& s = *random_spec;
     s.count = yamlGetOr<int>(r, "count", s.count, wr);
-    if (s.count < 1) fail(wr, ": count: expected >= 1");
+    // The poses are drawn up front: a count near 2^31 ran for minutes and took gigabytes (found
+    // by the scene fuzzer). An hour of one pose per 0.1 s is 36000.
+    constexpr int kMaxRandomPoses = 100000;
+    if (s.count < 1 || s.count > kMaxRandomPoses)
+      fail(wr, ": count: expected 1..", kMaxRandomPoses, " (the poses are drawn when the scene "
+           "loads)");
     s.interval_s = yamlGetOr<double>(r, "interval_s", s.interval_s, wr);
     if (!(s.interval_s > 0)) fail(wr, ": interval_s: expected > 0");
     s.seed = yamlGetOr<uint64_t>(r, "seed", s.seed, wr);

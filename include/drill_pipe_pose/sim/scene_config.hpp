@@ -54,12 +54,13 @@
 //                            half_extent: [1, 1], tilt_deg: [0, 90], hanging_fraction: 0.3,
 //                            clearance: [0.05, 1.0], min_separation: 1.0}}
 //
-// random_poses (tool_joint only) draws `count` poses held `interval_s` each (cycling): position
-// uniform in centre +- half_extent, tilt from vertical uniform in tilt_deg, any yaw and roll;
-// a pin end hangs (points down, tilt <= 15 deg) with probability hanging_fraction; the height
-// puts the lowest point of the joint `clearance` above the floor; origins keep min_separation
-// [m] (horizontal) from earlier random-pose pipes at the same index. Seeded by the file's seed
-// only, so the ground truth does not depend on the simulator seed.
+// random_poses (tool_joint only) draws `count` (1..100000) poses held `interval_s` each
+// (cycling): position uniform in centre +- half_extent, tilt from vertical uniform in
+// tilt_deg, any yaw and roll; a pin end hangs (points down, tilt <= 15 deg) with probability
+// hanging_fraction; the height puts the lowest point of the joint `clearance` above the floor;
+// origins keep min_separation [m] (horizontal) from earlier random-pose pipes at the same
+// index. Seeded by the file's seed only, so the ground truth does not depend on the simulator
+// seed.
 
 #include <Eigen/Geometry>
 #include <map>
