@@ -329,7 +329,11 @@ TEST(PipeCatalog, ValidateDimensionsNamesTheField) {
                                        "tool_joint_od = 0.168275"));
   d = ToolJointDimensions();
   d.elevator_taper_deg = 90;
-  EXPECT_TRUE(contains(errorOfDims(d), "field elevator_taper_deg = 90 must be < 90"));
+  EXPECT_TRUE(contains(errorOfDims(d), "field elevator_taper_deg = 90 must be >= 1 and < 90"));
+  d.elevator_taper_deg = 0.5;
+  EXPECT_TRUE(contains(errorOfDims(d), "field elevator_taper_deg = 0.5 must be >= 1 and < 90"));
+  d.elevator_taper_deg = 1e-320;  // positive (denormal), yet its taper would be infinitely long
+  EXPECT_TRUE(contains(errorOfDims(d), "must be >= 1 and < 90 (deg)"));
   d = ToolJointDimensions();
   d.threads = true;
   d.thread_height = 0;

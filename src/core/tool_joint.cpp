@@ -34,8 +34,12 @@ void validateDimensions(const ToolJointDimensions& d, const std::string& where) 
   }
   if (!std::isfinite(d.pin_taper) || d.pin_taper < 0.0)
     fail(where, ": field pin_taper = ", d.pin_taper, " must be finite and >= 0");
-  if (!(d.elevator_taper_deg < 90.0))
-    fail(where, ": field elevator_taper_deg = ", d.elevator_taper_deg, " must be < 90");
+  // At least 1 deg: a taper's length is the shoulder's height over tan(angle), so a tiny
+  // positive angle (1e-320, found by the catalogue fuzzer) gave an infinite profile point.
+  // API tapers are 18 deg; at 1 deg a 5" joint's taper would be 1.2 m.
+  if (!(d.elevator_taper_deg >= 1.0 && d.elevator_taper_deg < 90.0))
+    fail(where, ": field elevator_taper_deg = ", d.elevator_taper_deg,
+         " must be >= 1 and < 90 (deg)");
   // a < b, naming both fields.
   auto less = [&](double a, const char* a_name, double b, const char* b_name) {
     if (!(a < b)) fail(where, ": field ", a_name, " = ", a, " must be < ", b_name, " = ", b);

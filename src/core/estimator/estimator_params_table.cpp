@@ -54,7 +54,7 @@ ParamTable<EstimatorConfig> makeEstimatorTable() {
       P("tool_joint/tube_id", dims.tube_id, "m", positive(), "pipe body ID"),
       P("tool_joint/tool_joint_od", dims.tool_joint_od, "m", positive(), "tool-joint OD"),
       P("tool_joint/tool_joint_id", dims.tool_joint_id, "m", positive(), "tool-joint bore"),
-      P("tool_joint/elevator_taper_deg", dims.elevator_taper_deg, "deg", positive(),
+      P("tool_joint/elevator_taper_deg", dims.elevator_taper_deg, "deg", atLeast(1),
         "angle between the elevator taper and the axis"),
       P("tool_joint/pin_tong_length", dims.pin_tong_length, "m", positive(),
         "pin tool joint: shoulder to start of the taper"),
