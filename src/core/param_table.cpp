@@ -172,6 +172,9 @@ std::string ParamRange::text() const {
 void checkParamValue(const ParamInfo& info, const ParamValue& value, const std::string& source) {
   if (const auto* i = std::get_if<long long>(&value)) {
     checkNumber(info, static_cast<double>(*i), info.name, source);
+    if (*i < info.int_min || *i > info.int_max)
+      fail(from(source), "parameter ", info.name, " = ", *i, ": out of the range of its integer ",
+           "type (", info.int_min, " to ", info.int_max, ")");
   } else if (const auto* d = std::get_if<double>(&value)) {
     checkNumber(info, *d, info.name, source);
   } else if (const auto* v = std::get_if<Eigen::Vector3d>(&value)) {

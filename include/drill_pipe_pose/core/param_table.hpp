@@ -77,6 +77,9 @@ struct ParamInfo {
   ParamRange range;                  ///< numbers only
   std::vector<std::string> choices;  ///< kEnum only
   std::string doc;                   ///< one line
+  /// kInt only: the limits of the field's C++ type (a value outside would be cut to another).
+  long long int_min = std::numeric_limits<long long>::min();
+  long long int_max = std::numeric_limits<long long>::max();
 };
 
 /// One row of a table: the description and the accessors of the configuration's field.
@@ -174,6 +177,14 @@ ParamSpec<Config> paramField(std::string name, std::string unit, ParamRange rang
   s.info.unit = std::move(unit);
   s.info.range = range;
   s.info.doc = std::move(doc);
+  if constexpr (std::is_integral_v<T> && !std::is_same_v<T, bool>) {
+    static_assert(sizeof(T) <= sizeof(long long), "integer parameter wider than long long");
+    s.info.int_min = static_cast<long long>(std::numeric_limits<T>::min());
+    s.info.int_max = std::numeric_limits<T>::max() > static_cast<unsigned long long>(
+                                                         std::numeric_limits<long long>::max())
+                         ? std::numeric_limits<long long>::max()
+                         : static_cast<long long>(std::numeric_limits<T>::max());
+  }
   s.get = [access](const Config& c) { return param_detail::toValue<T>(access(c)); };
   s.set = [access](Config& c, const ParamValue& v) { access(c) = param_detail::fromValue<T>(v); };
   return s;
