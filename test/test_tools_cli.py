@@ -13,6 +13,7 @@ simulate_bag (test_detect_bag_on_a_colour_bag).
 """
 import argparse
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -51,7 +52,7 @@ OPTIONS = {
                      "--background-distance", "--depth-offset"],
     "render_dataset": ["--out", "--rig", "--sensors", "--scene", "--cameras", "--random",
                        "--frames", "--augment", "--jpeg-quality", "--seed", "--profile", "--split",
-                       "--format", "--negatives", "--print-roi", "--quiet"],
+                       "--format", "--negatives", "--drill-floor", "--print-roi", "--quiet"],
     "rig_info": ["--target", "--zone"],
     "simulate_bag": ["--scene", "--out", "--rig", "--duration", "--start", "--profile", "--seed",
                      "--no-detection", "--color", "--crop", "--sensors", "--quiet", "--effect-off",
@@ -162,6 +163,34 @@ class ToolsCli(unittest.TestCase):
                 r = run(tool, *args)
                 self.assertEqual(r.returncode, 2, r.stdout + r.stderr)
                 self.assertIn(opt, r.stderr)
+
+    def test_render_dataset_drill_floor_adds_stumps(self):
+        """--drill-floor 1: every random scenario also holds a stump (a box end in slips), drawn
+        from its own generator: the same scenarios (seed 170) with more box ends in view, and
+        some images with two or more."""
+        def render(fraction):
+            out = os.path.join(self.tmp, "floor%s" % fraction)
+            r = run("render_dataset", "--out", out, "--random", "3", "--frames", "1", "--seed",
+                    "170", "--cameras", "cam1,cam4", "--format", "yolo", "--negatives", "1",
+                    "--drill-floor", fraction, "--quiet")
+            self.assertEqual(r.returncode, 0, r.stdout + r.stderr)
+            m = re.search(r"(\d+) images \((\d+) box_end, (\d+) pin_end boxes\)", r.stdout)
+            self.assertIsNotNone(m, r.stdout)
+            most = 0
+            labels = os.path.join(out, "yolo", "labels", "train")
+            for name in os.listdir(labels):
+                with open(os.path.join(labels, name)) as f:
+                    most = max(most, sum(1 for line in f if line.split()[:1] == ["0"]))
+            return [int(v) for v in m.groups()], most
+        (n0, box0, pin0), most0 = render("0")
+        (n1, box1, pin1), most1 = render("1")
+        self.assertEqual(n0, n1, "the same images (negatives all kept)")
+        self.assertGreater(box1, box0, "the stumps' box ends")
+        self.assertGreaterEqual(pin1, pin0, "hanging pin ends added, none removed")
+        self.assertGreaterEqual(most1, max(2, most0), "a stump and the random box end in one image")
+        r = run("render_dataset", "--out", self.tmp, "--drill-floor", "1.5")
+        self.assertEqual(r.returncode, 2, r.stdout + r.stderr)
+        self.assertIn("--drill-floor", r.stderr)
 
     def test_render_board_writes_frames(self):
         """The one tool run for real: 2 board poses, ideal sensor, read back without OpenCV."""

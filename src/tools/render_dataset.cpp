@@ -57,6 +57,7 @@ struct Options {
   uint32_t seed = 1;
   std::string profile = "kinect_v2_calibrated", split = "train", format = "both";
   double negatives = 0.2;
+  double drill_floor = 0.0;
   bool print_roi = false, quiet = false;
 };
 
@@ -115,6 +116,11 @@ Options parseArgs(int argc, char** argv) {
                  "fraction of images without a tool joint that are kept")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1.0));
+  app.add_option("--drill-floor", o.drill_floor,
+                 "fraction of the random scenarios that also hold a drill floor's stump: a box "
+                 "end standing in slips on a rotary table, sometimes a pin end hanging over it")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1.0));
   app.add_option("--jpeg-quality", o.jpeg_quality, "JPEG quality of the images")
       ->capture_default_str()
       ->check(CLI::Range(0, 100));
@@ -129,8 +135,53 @@ Options parseArgs(int argc, char** argv) {
   return o;
 }
 
-/// A random scenario as scene-file YAML (the simulator's own schema).
-std::string randomScenario(std::mt19937& rng, int frames, uint32_t scenario_seed) {
+/// With probability `fraction`, a drill floor's stump as scene-file YAML `objects` and `pipes`
+/// entries: a box end standing upright in slips on a rotary table (random heights, radii and
+/// materials; the stabbing and drill-floor set-ups), in half of them a pin end hanging over it.
+/// Its own generator (seeded by the scenario), so that the random scenarios' other draws stay
+/// the same with or without it.
+struct Stump {
+  std::string objects, pipes;
+};
+Stump drillFloorStump(double fraction, uint32_t scenario_seed) {
+  std::mt19937 rng(scenario_seed * 2654435761u + 97u);
+  std::uniform_real_distribution<double> U(0.0, 1.0);
+  auto uni = [&](double a, double b) { return a + (b - a) * U(rng); };
+  Stump st;
+  if (fraction <= 0 || U(rng) >= fraction) return st;
+  const std::vector<std::string> steel = {"dark_steel", "rusty_steel", "catwalk_steel",
+                                          "black_rubber", "grey_paint"};
+  auto pick = [&]() { return steel[static_cast<size_t>(U(rng) * steel.size()) % steel.size()]; };
+  const double x = uni(3.5, 5.9), y = uni(4.8, 7.3);
+  const double table_h = uni(0.1, 0.35), slips_h = table_h + uni(0.15, 0.4);
+  const double face = slips_h + uni(0.2, 0.6);  // [m] the box face above the floor
+  std::ostringstream o, p;
+  o << "  - {name: rotary_table, type: cylinder, radius: " << uni(0.45, 0.8)
+    << ", height: " << table_h << ", pose: {translation: [" << x << ", " << y
+    << ", 0.0], rpy_deg: [0, 0, 0]}, material: " << pick() << "}\n";
+  o << "  - {name: slips, type: cylinder, radius: " << uni(0.13, 0.25) << ", height: " << slips_h
+    << ", pose: {translation: [" << x << ", " << y << ", 0.0], rpy_deg: [0, 0, 0]}, material: "
+    << pick() << "}\n";
+  p << "  - {name: stump, type: tool_joint, end: box_end, tube_length: 1.0, pose: {translation: ["
+    << x << ", " << y << ", " << face << "], rpy_deg: [0, 0, " << uni(0, 360)
+    << "]}, material: paint" << static_cast<int>(uni(0, 3)) << "}\n";
+  if (U(rng) < 0.5) {
+    const double a = uni(0, 2 * M_PI), off = uni(0.0, 0.08);
+    p << "  - {name: hoisted, type: tool_joint, end: pin_end, tube_length: " << uni(1.0, 3.0)
+      << ", pose: {translation: [" << x + off * std::cos(a) << ", " << y + off * std::sin(a)
+      << ", " << face + uni(0.25, 1.2) << "], z_axis: [0, 0, -1]}, material: paint"
+      << static_cast<int>(uni(0, 3)) << "}\n";
+  }
+  st.objects = o.str();
+  st.pipes = p.str();
+  return st;
+}
+
+/// A random scenario as scene-file YAML (the simulator's own schema); with `drill_floor` > 0
+/// sometimes a drill floor's stump too (drillFloorStump).
+std::string randomScenario(std::mt19937& rng, int frames, uint32_t scenario_seed,
+                           double drill_floor) {
+  const Stump stump = drillFloorStump(drill_floor, scenario_seed);
   std::uniform_real_distribution<double> U(0.0, 1.0);
   auto uni = [&](double a, double b) { return a + (b - a) * U(rng); };
   auto pick = [&](const std::vector<std::string>& v) {
@@ -174,7 +225,8 @@ std::string randomScenario(std::mt19937& rng, int frames, uint32_t scenario_seed
                                                  "concrete",      "rusty_steel"};
   // Clutter (background objects) near the work zone.
   const int n_clutter = static_cast<int>(uni(0, 7));
-  if (n_clutter > 0) y << "objects:\n";
+  if (n_clutter > 0 || !stump.objects.empty()) y << "objects:\n";
+  y << stump.objects;
   for (int i = 0; i < n_clutter; ++i) {
     const double x = uni(2.7, 6.7), yy = uni(4.0, 8.1), yaw = uni(0, 180);
     if (U(rng) < 0.5) {
@@ -189,7 +241,7 @@ std::string randomScenario(std::mt19937& rng, int frames, uint32_t scenario_seed
     }
   }
   // The tool joints: one box-end and one pin-end lab sample moving through random poses.
-  y << "pipes:\n";
+  y << "pipes:\n" << stump.pipes;
   const double cx = uni(3.9, 5.5), cy = uni(5.2, 6.9);
   const bool mud = U(rng) < 0.6;
   for (int e = 0; e < 2; ++e) {
@@ -369,7 +421,7 @@ int main(int argc, char** argv) {
     for (size_t i = 0; i < total; ++i) {
       if (o.scenes.empty()) {
         const uint32_t sseed = o.seed * 100000u + static_cast<uint32_t>(i);
-        const std::string yaml = randomScenario(rng, o.frames, sseed);
+        const std::string yaml = randomScenario(rng, o.frames, sseed, o.drill_floor);
         const sim::SceneConfig scene =
             sim::parseSceneConfig(yaml, "random scenario " + std::to_string(sseed));
         char tag[64];
