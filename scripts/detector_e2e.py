@@ -78,6 +78,10 @@ def main():
     ap.add_argument("--run", default="scripts/bench")
     ap.add_argument("--duration", default="10")
     ap.add_argument("--commands", metavar="FILE", help="the commands behind the figures, one a line")
+    ap.add_argument("--detector-eval", metavar="FILE",
+                    help="detector_eval's output on the held-out renders (quoted in the section)")
+    ap.add_argument("--detector-eval-command", default="",
+                    help="the commands behind --detector-eval's figures")
     a = ap.parse_args()
     rows = parse(a.results)
     if not rows:
@@ -108,6 +112,13 @@ def main():
               f"{T_MM}, d deg <= {T_DEG}.", "",
               "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
         md += ["| " + " | ".join(r) + " |" for r in out]
+        if a.detector_eval and os.path.exists(a.detector_eval):
+            md += ["", "The detector alone on held-out renders of the same scenes (seeds 11 and "
+                   "151-153, 4 frames per scene and seed; the node's operating point is confidence "
+                   "0.25, the best box per class):", ""]
+            md += ["    " + line.rstrip() for line in open(a.detector_eval) if line.strip()]
+            if a.detector_eval_command:
+                md += ["", a.detector_eval_command]
         if a.commands and os.path.exists(a.commands):
             md += ["", "Commands (from the repository root, workspace sourced; SEED in 101-104):",
                    ""]
