@@ -476,7 +476,8 @@ TEST(SimScenario, AllScenesLoadAndGroundTruthIsCanonical) {
   const RigCalibration rig = loadRigCalibration(kRig);
   EXPECT_EQ(rig.cameras.size(), 6u);
   for (const char* name : {"thesis_vertical", "thesis_angled", "catwalk_horizontal", "stabbing",
-                           "cluttered", "dark_steel", "moving", "random_poses"}) {
+                           "cluttered", "dark_steel", "moving", "random_poses", "sodium_rust",
+                           "sodium_rust_poses"}) {
     const SceneConfig scene = loadSceneConfig(scenePath(name));
     SimulatorOptions opt;
     RigSimulator sim(rig, scene, opt);
@@ -573,7 +574,44 @@ TEST(SimScenario, BadFilesNameFileKeyAndExpectation) {
                     "0.24, hold_s: 2, placements: [{translation: [0, 0, 1]}]}\n")
                 .find("squares: expected two whole numbers, at most 1000"),
             std::string::npos);
+  // The light: ambient is a fraction, the tint three gains in [0, 4].
+  EXPECT_NE(message(head + pipe + "light: {direction: [0, 0, -1], ambient: 1.5}\n")
+                .find("bad.yaml: light: ambient: expected a fraction in [0, 1]"),
+            std::string::npos);
+  EXPECT_NE(message(head + pipe + "light: {direction: [0, 0, -1], tint: [1, -0.1, 1]}\n")
+                .find("bad.yaml: light: tint: expected three gains [b, g, r] in [0, 4]"),
+            std::string::npos);
+  EXPECT_NE(message(head + pipe + "light: {direction: [0, 0, -1], tint: [1, 1]}\n")
+                .find("tint: expected a sequence of 3 numbers"),
+            std::string::npos);
   EXPECT_THROW(sensorProfile("kinect_v3"), InputError);
+}
+
+TEST(SimRender, LightTintScalesEachColourChannel) {
+  // The same scene under white light and under a tint: each channel of the noise-free colour
+  // image scales by its gain (the ideal profile: no colour noise), the depth is unchanged.
+  std::ifstream in(scenePath("thesis_vertical"));
+  const std::string base((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const SceneConfig white = parseSceneConfig(base, "white");
+  const SceneConfig tinted = parseSceneConfig(
+      base + "light: {direction: [0.3, 0.2, -1], ambient: 0.35, tint: [0.5, 1.0, 0.25]}\n",
+      "tinted");
+  const RigCalibration rig = loadRigCalibration(kRig);
+  SimulatorOptions opt;
+  opt.profile = "ideal";
+  opt.color = true;
+  RigSimulator a(rig, white, opt), b(rig, tinted, opt);
+  const RigSimulator::Frame fa = a.render(0, 0.0, 0), fb = b.render(0, 0.0, 0);
+  ASSERT_EQ(fa.bgr.size(), fb.bgr.size());
+  EXPECT_EQ(bytesOf(fa.sensor_frame.depth), bytesOf(fb.sensor_frame.depth));
+  const double gain[3] = {0.5, 1.0, 0.25};
+  double sum_a[3] = {0, 0, 0}, sum_b[3] = {0, 0, 0};
+  for (size_t i = 0; i < fa.bgr.size(); ++i) {
+    sum_a[i % 3] += fa.bgr[i];
+    sum_b[i % 3] += fb.bgr[i];
+  }
+  for (int c = 0; c < 3; ++c)
+    EXPECT_NEAR(sum_b[c] / sum_a[c], gain[c], 0.02) << "channel " << c;  // 8-bit truncation
 }
 
 TEST(SimRender, OneSensorEffectSwitchesOffByName) {

@@ -440,6 +440,7 @@ void RigSimulator::renderColor(Camera& cam, size_t index, const SceneSnapshot& s
   const Eigen::Matrix3d R = cam.T_world_color.linear();
   const Eigen::Vector3d L = scene_.light.direction;
   const double amb = scene_.light.ambient;
+  const Eigen::Vector3d tint = scene_.light.tint;
   auto shading = [&](const SceneHit& hit, const Eigen::Vector3d& d) {
     Eigen::Vector3d n = hit.n_world;
     if (n.dot(d) > 0) n = -n;
@@ -448,7 +449,7 @@ void RigSimulator::renderColor(Camera& cam, size_t index, const SceneSnapshot& s
   auto shade = [&](const SceneHit& hit, const Eigen::Vector3d& d, uint8_t* px) {
     const double k = shading(hit, d);
     for (int c = 0; c < 3; ++c)
-      px[c] = static_cast<uint8_t>(std::clamp(hit.bgr[c] * k, 0.0, 255.0));
+      px[c] = static_cast<uint8_t>(std::clamp(hit.bgr[c] * k * tint[c], 0.0, 255.0));
   };
   auto rayDir = [&](double u, double v) {
     return (R * Eigen::Vector3d((u + cc.offsetX() - cc.cx()) / cc.fx(),
@@ -470,7 +471,7 @@ void RigSimulator::renderColor(Camera& cam, size_t index, const SceneSnapshot& s
       SceneHit h;
       const bool on = scene_.intersect(sub, s, &one, 1e-3, 1e3, &h);
       const double k_shade = on ? shading(h, sub.d) : 0.0;
-      for (int c = 0; c < 3; ++c) acc[c] += on ? h.bgr[c] * k_shade : under[c];
+      for (int c = 0; c < 3; ++c) acc[c] += on ? h.bgr[c] * k_shade * tint[c] : under[c];
     }
     for (int c = 0; c < 3; ++c)
       px[c] = static_cast<uint8_t>(std::clamp(std::lround(acc[c] / kTargetSamples), 0L, 255L));

@@ -348,6 +348,14 @@ SceneConfig parseRoot(const YAML::Node& root, const std::string& src) {
     if (cfg.light.direction.norm() < 1e-9) fail(w, ": direction: expected a non-zero vector");
     cfg.light.direction.normalize();
     cfg.light.ambient = yamlGetOr<double>(root["light"], "ambient", cfg.light.ambient, w);
+    if (!(cfg.light.ambient >= 0.0 && cfg.light.ambient <= 1.0))
+      fail(w, ": ambient: expected a fraction in [0, 1], got ", cfg.light.ambient);
+    if (root["light"]["tint"]) {
+      cfg.light.tint = yamlVec3(root["light"], "tint", w);
+      for (int c = 0; c < 3; ++c)
+        if (!(cfg.light.tint[c] >= 0.0 && cfg.light.tint[c] <= 4.0))
+          fail(w, ": tint: expected three gains [b, g, r] in [0, 4], got ", cfg.light.tint[c]);
+    }
   }
   cfg.materials = builtinMaterials();
   if (root["materials"]) {

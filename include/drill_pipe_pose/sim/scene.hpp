@@ -115,6 +115,9 @@ struct SceneEnd {
 struct Light {
   Eigen::Vector3d direction = Eigen::Vector3d(0.3, 0.2, -1.0).normalized();  ///< travel, world
   double ambient = 0.35;  ///< ambient fraction [0, 1]
+  /// Per-channel gain on every surface's colour, B, G, R order [0, 4]: the light's own colour
+  /// (1, 1, 1: white; a sodium floodlight is strong in red and green, weak in blue).
+  Eigen::Vector3d tint = Eigen::Vector3d::Ones();
 };
 
 /// The result of a ray cast in the world.

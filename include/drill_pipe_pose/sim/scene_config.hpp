@@ -8,7 +8,9 @@
 //   work_zone: {min: [x, y, z], max: [x, y, z]}   # [m] world, axis-aligned
 //   room: {size: [10, 10, 5.5], floor: concrete, walls: wall_paint}   # optional: floor z = 0
 //                                            # and four walls of the cell [0, sx] x [0, sy]
-//   light: {direction: [0.3, 0.2, -1], ambient: 0.35}                 # optional
+//   light: {direction: [0.3, 0.2, -1], ambient: 0.35,                 # optional
+//           tint: [1, 1, 1]}                 # optional: the light's colour, a gain per channel
+//                                            # (B, G, R order, each 0..4) on every surface
 //   materials:                               # optional, added to / overriding the built-ins
 //     my_paint: {reflectivity: 0.6, bgr: [20, 200, 230]}
 //   objects:                                 # optional clutter
