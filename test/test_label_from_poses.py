@@ -100,6 +100,24 @@ class LabelFromPoses(unittest.TestCase):
         f = self.label(os.path.join(self.tmp, "data2"), "--rejected", rejected)
         self.assertEqual(int(f["images"]), int(self.first["images"]) - 1, f"seed {SEED}: {f}")
 
+    def test_3_an_end_is_in_the_recording_from_its_share_of_cycles(self):
+        # An end is in the recording when its gated pose is reported in at least --min-end-share
+        # of the cycles. Here every cycle's pose passes the default gate and none passes a
+        # position-sigma gate of 0.1 mm: (extra options, share, verdict expected for both ends).
+        closed = ["--max-position-sigma", "0.0001"]
+        for extra, share, expect in (([], "1", True), (closed, "0.2", False), (closed, "0", True)):
+            r = subprocess.run([tool("label_from_poses"), "--recording", self.rec, "--poses",
+                                self.poses, "--out", os.path.join(self.tmp, "share" + share),
+                                "--quiet", "--min-end-share", share] + extra,
+                               capture_output=True, text=True)
+            self.assertEqual(r.returncode, 0, f"seed {SEED}: {r.stderr}")
+            ends = re.findall(r"(box_end|pin_end): a pose that passes the gate in (\d+) of (\d+) "
+                              r"cycles: (in the recording|not in the recording)", r.stdout)
+            self.assertEqual(len(ends), 2, f"seed {SEED}, share {share}:\n{r.stdout}")
+            for end, passing, cycles, verdict in ends:
+                self.assertEqual(verdict == "in the recording", expect,
+                                 f"seed {SEED}, {extra} share {share}: {end} {passing}/{cycles} "
+                                 f"{verdict}")
 
 if __name__ == "__main__":
     rostest.rosrun(PKG, "test_label_from_poses", LabelFromPoses, sys.argv)

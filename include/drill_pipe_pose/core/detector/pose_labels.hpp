@@ -233,8 +233,8 @@ double labelDoubt(const LabelItem& item, const LabelParams& params);
 /// Labels every view from the poses. `views` are the projections of every end into every image
 /// (projections[v][e], nullopt: no pose for that end at that image); `poses[v][e]` the pose used.
 /// `expected[e]`: the end appears in the recording (label_from_poses: the estimator reported it
-/// with a pose that passes gatePose in at least half of its cycles): an image needs a decision
-/// for it. Counts every reason an image is left out.
+/// with a pose that passes gatePose in at least --min-end-share of its cycles): an image needs a
+/// decision for it. Counts every reason an image is left out.
 struct LabelInputs {
   std::vector<std::string> cameras;  ///< per view
   std::vector<int64_t> stamps_ns;    ///< per view
