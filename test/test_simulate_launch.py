@@ -45,7 +45,8 @@ class SimulateLaunch(unittest.TestCase):
         deadline = time.time() + 90.0
         while time.time() < deadline and len(cycles) < 60:
             time.sleep(0.2)
-        self.assertGreaterEqual(len(cycles), 60, f"only {len(cycles)} estimator cycles in 90 s")
+        self.assertGreaterEqual(len(cycles), 60, f"only {len(cycles)} estimator cycles in 90 s "
+                                f"after the ground truth (received for: {sorted(truth)})")
         for end, errs in errors.items():
             print(f"{end}: {len(errs)} valid poses in {len(cycles)} cycles, mean 3D error "
                   f"{1e3 * sum(errs) / max(len(errs), 1):.1f} mm; invalid: {dict(invalid[end])}",
