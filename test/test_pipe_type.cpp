@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 #include <limits>
 
 #include "drill_pipe_pose/core/estimator/pipe_type.hpp"
@@ -110,48 +111,77 @@ const std::vector<PipeCandidate> kSizes{
     type("4.5_NC50", 0.16193, 0.1143), type("5_NC50", 0.16828, 0.1270),
     type("5_NC50_twin", 0.16828, 0.1270), type("5.5_FH", 0.1778, 0.1397)};
 
-TypeTrial trial(int type, double offset, bool ok = true) {
-  TypeTrial t;
-  t.type = type;
-  t.ok = ok;
-  t.offset = offset;
-  return t;
+/// A joint of true radius `truth` as a search sees it: against a model of radius R it reads
+/// `gain` of the way from R to its own radius.
+std::function<bool(double, double*)> reading(double truth, double gain, int* calls) {
+  return [=](double r, double* offset) {
+    ++*calls;
+    *offset = gain * (truth - r);
+    return true;
+  };
 }
 }  // namespace
 
-TEST(PipeTypeTrial, NoTrialWhileTheJointReadsItsOwnRadius) {
-  EXPECT_EQ(trialTypes(kSizes, 3, 0.16828 / 2, TypingConfig()), std::vector<int>{3});
-  // 1 mm thin: the window reaches 4.5 mm of radius down, to the 6-3/8" joint (3.2 mm).
-  EXPECT_EQ(trialTypes(kSizes, 3, 0.16828 / 2 - 0.001, TypingConfig()),
-            (std::vector<int>{3, 2}));
+TEST(RadiusSearch, FindsTheRadiusWhateverTheGain) {
+  // Halfway (the thesis lab) and a seventh of the way (a joint lying on the catwalk), from the
+  // 6-5/8" model: a 4-3/4" joint and an 8" one.
+  for (double gain : {0.5, 0.14, 1.0})
+    for (double truth : {0.12065 / 2, 0.2032 / 2}) {
+      int calls = 0;
+      const RadiusSearch s = searchRadius(reading(truth, gain, &calls), 0.16828 / 2, 0.05, 0.115);
+      ASSERT_TRUE(s.ok) << "gain " << gain << " truth " << truth;
+      EXPECT_NEAR(s.radius, truth, 2e-4) << "gain " << gain;
+      EXPECT_EQ(s.refits, calls);
+      EXPECT_LE(s.refits, 5);
+      EXPECT_NEAR(s.gain, gain, 1e-6);
+    }
 }
 
-TEST(PipeTypeTrial, ATinyJointTriesEverySmallerOdOnce) {
-  // A 4-3/4" joint reads halfway to the 6-5/8" model: 144.5 mm.
-  const std::vector<int> t = trialTypes(kSizes, 3, 0.1445 / 2, TypingConfig());
-  EXPECT_EQ(t, (std::vector<int>{3, 0, 1, 2})) << "each smaller OD once, none larger, no twin";
-  // The other side: a 7" joint read at 173 mm.
-  EXPECT_EQ(trialTypes(kSizes, 3, 0.173 / 2, TypingConfig()), (std::vector<int>{3, 5}));
-  EXPECT_TRUE(trialTypes(kSizes, -1, 0.08, TypingConfig()).empty());
+TEST(RadiusSearch, StaysInItsRangeAndStopsOnAFailedRefit) {
+  int calls = 0;
+  // A reading off the range's end is the range's end.
+  RadiusSearch s = searchRadius(reading(0.2, 0.5, &calls), 0.084, 0.05, 0.115);
+  ASSERT_TRUE(s.ok);
+  EXPECT_DOUBLE_EQ(s.radius, 0.115);
+  // The first refit fails: no radius.
+  s = searchRadius([](double, double*) { return false; }, 0.084, 0.05, 0.115);
+  EXPECT_FALSE(s.ok);
+  EXPECT_EQ(s.refits, 1);
+  // A later one fails: the radius from the last good one, at the assumed halfway gain.
+  calls = 0;
+  s = searchRadius(
+      [&](double r, double* offset) {
+        *offset = 0.5 * (0.09 - r);
+        return ++calls == 1;
+      },
+      0.084, 0.05, 0.115);
+  ASSERT_TRUE(s.ok);
+  EXPECT_NEAR(s.radius, 0.09, 1e-9);
+  EXPECT_EQ(s.refits, 2);
+  // NaN offsets are failures.
+  s = searchRadius(
+      [](double, double* offset) {
+        *offset = std::nan("");
+        return true;
+      },
+      0.084, 0.05, 0.115);
+  EXPECT_FALSE(s.ok);
 }
 
-TEST(PipeTypeTrial, TheTypeThatExplainsItsRadiusWins) {
+TEST(RadiusProbabilities, TwoEndsCountTogether) {
   const TypingConfig c;
-  // Against its own model the 4-3/4" joint reads +0.3 mm; against the others it reads thinner.
-  EXPECT_EQ(chooseTrial({trial(3, -11.0e-3), trial(0, 0.3e-3), trial(1, -9.0e-3)}, c), 0);
-  // A joint 1.5 mm (radius) worn reads -0.75 mm against its own model: it keeps it, though
-  // the next smaller size reads +0.8 mm.
-  EXPECT_EQ(chooseTrial({trial(3, -0.75e-3), trial(2, 0.8e-3)}, c), 3);
-  // Within trial_margin the current type stays.
-  EXPECT_EQ(chooseTrial({trial(3, 0.4e-3), trial(2, 0.3e-3)}, c), 3);
-  // A failed trial does not count; none ok: -1.
-  EXPECT_EQ(chooseTrial({trial(3, 5e-3), trial(0, 0.0, false)}, c), 3);
-  EXPECT_EQ(chooseTrial({trial(3, 0.0, false), trial(0, 1e-3)}, c), 0);
-  EXPECT_EQ(chooseTrial({trial(3, 0.0, false)}, c), -1);
-  EXPECT_EQ(chooseTrial({}, c), -1);
-  // The configured type wins typing.prior_margin back: a worn joint read 1.9 mm thin against it
-  // and 0.2 mm thick against the next smaller size keeps the configured type, not another.
-  EXPECT_EQ(chooseTrial({trial(3, -1.9e-3), trial(2, 0.2e-3)}, c, 3), 3);
-  EXPECT_EQ(chooseTrial({trial(3, -1.9e-3), trial(2, 0.2e-3)}, c), 2);
-  EXPECT_EQ(chooseTrial({trial(2, 0.2e-3), trial(3, -1.9e-3)}, c, 3), 3) << "also back to it";
+  RadiusMean box, pin, none;
+  // The box end reads the 7" joint; the pin end, whose readings scatter by 6 mm, reads low.
+  for (int i = 0; i < 10; ++i) box.add(0.1778 / 2 + (i % 2 ? 0.001 : -0.001), 0.0);
+  for (int i = 0; i < 10; ++i) pin.add(0.0825 + (i % 2 ? 0.006 : -0.006), 0.0);
+  const std::vector<double> alone = radiusProbabilities({&pin}, kSizes, c);
+  const std::vector<double> both = radiusProbabilities({&box, &pin, &none}, kSizes, c);
+  EXPECT_GT(jointOdProbability(alone, kSizes, 3), 0.3) << "the pin alone is unsure";
+  EXPECT_GT(both[5], 0.9) << "with the box end: the 7\" joint";
+  EXPECT_NEAR(jointOdProbability(both, kSizes, 3), both[3] + both[4], 1e-12);
+  EXPECT_NEAR(both[3], both[4], 1e-12) << "one joint OD, two tubes: equal";
+  // Without a measurement: uniform.
+  const std::vector<double> u = radiusProbabilities({&none}, kSizes, c);
+  for (double v : u) EXPECT_NEAR(v, 1.0 / kSizes.size(), 1e-12);
+  EXPECT_EQ(jointOdProbability(u, kSizes, -1), 0.0);
 }

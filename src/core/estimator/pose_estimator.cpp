@@ -24,7 +24,7 @@
 #include "drill_pipe_pose/core/pipe_end_frame.hpp"
 #include "end_models.hpp"
 #include "label_fit.hpp"
-#include "type_trial.hpp"
+#include "radius_search.hpp"
 
 namespace drill_pipe_pose {
 
@@ -32,10 +32,10 @@ namespace drill_pipe_pose {
 struct EndType {
   int type = 0;            ///< index into the candidates: the model the end is fitted with
   TypeEvidence evidence;   ///< the measurements on the end's track (against its type's model)
-  /// Per candidate: its type trials' radius offsets on the track (each against the candidate's
-  /// own model, so they hold across type changes).
-  std::vector<RadiusMean> trials;
-  int decisions = 0;  ///< decisions since the end's type last had trials
+  /// The joint radii searched for at the track's decisions (measureJointRadius): absolute, so
+  /// they hold across type changes.
+  RadiusMean measured;
+  int decisions = 0;  ///< decisions since the radius search's count was reached
   int64_t last_valid_ns = 0;  ///< capture stamp of the end's last valid cycle
   uint32_t id = 0;            ///< the end's instance id (0: no track)
   Eigen::Vector3d last_origin = Eigen::Vector3d::Zero();  ///< [m] of its last valid fit
@@ -67,7 +67,7 @@ int startType(const EstimatorConfig& config, const std::vector<PipeCandidate>& c
 struct PoseEstimator::Impl {
   explicit Impl(const EstimatorConfig& config)
       : candidates(candidatesOf(config)), start(startType(config, candidates)),
-        type_models(candidates) {
+        radius_models(candidates) {
     for (auto& t : state.types) t.type = start;
   }
   /// The models of the ends' current types (built once per pair of types).
@@ -83,7 +83,7 @@ struct PoseEstimator::Impl {
   }
   const std::vector<PipeCandidate> candidates;
   const int start;  ///< the type every end starts from
-  TypeModelCache type_models;  ///< every candidate type's models, for the type trials
+  RadiusModelCache radius_models;  ///< models of any joint radius, for the radius search
   std::map<std::pair<int, int>, std::unique_ptr<EndModels>> model_sets;
   EstimatorState state;
 };
@@ -356,50 +356,56 @@ void outputEnd(int slot, const Candidate* cd, const std::array<Candidate, kNumEn
   sup.addTo(&e, config);
 }
 
-/// The type end `slot` takes at a decision. Another joint OD is decided by trials: measured
-/// against a model of another size, a joint reads about halfway between the two (a 120.6 mm
-/// joint read 142 mm against the 158.8 mm model: thesis_vertical, 3-1/2" NC38, seed 92), so
-/// the types on the reading's side are refitted and measured each against its own model
-/// (trialTypes, chooseTrial). Among the types that share the current joint OD, the tube's
-/// evidence decides: the top type takes over when it is typing.switch_probability likely, or
-/// the current one has become unlikely.
+/// The type end `slot` takes at a decision. The joint's radius is searched for at the
+/// decision (measureJointRadius: the end refitted with models of other radii until one explains
+/// the points) and averaged on the track; measured against its own model alone, a joint of
+/// another size reads only part of the way to its radius. Another joint OD takes over when its
+/// type is typing.switch_probability likely on that mean, or the current OD has become
+/// unlikely. Among the types that share the current joint OD, the tube's evidence decides in
+/// the same way.
 int nextType(int slot, const Candidate& cd, const std::vector<PipeCandidate>& cands,
-             const std::vector<double>& p, int start, EndType* et_out,
-             const EstimatorConfig& config, TypeModelCache* type_models) {
+             const std::vector<double>& p, const EndType& other, EndType* et_out,
+             const EstimatorConfig& config, RadiusModelCache* radius_models) {
   EndType& et = *et_out;
-  const std::vector<int> types =
-      trialTypes(cands, et.type, et.evidence.joint.mean(), config.typing);
-  // Once the end's own type has won kSettled trial rounds, trials come only every kSettled-th
-  // decision: a reading that stays off its model (clutter beside the joint) would otherwise
-  // refit the end several times at every decision (cluttered: 26 ms per cycle against 11 ms
-  // without typing, seed 1).
+  const double sp = config.typing.switch_probability;
+  const size_t enough = static_cast<size_t>(std::max(1, config.typing.min_measurements));
+  // Once the end's searched radii are sure of its current joint OD (at least twice
+  // typing.min_measurements of them), searches come only every kSettled-th decision: each
+  // refits the end two to five times, and the cluttered scene's tracks restart often. Until then
+  // every decision searches: a pin end lying on the catwalk needs about ten (seed 92).
   constexpr int kSettled = 5;
-  const bool settled = et.type < static_cast<int>(et.trials.size()) &&
-                       et.trials[et.type].count() >= static_cast<size_t>(kSettled);
-  const bool due = !settled || ++et.decisions % kSettled == 0;
-  if (types.size() > 1 && due) {
-    // Each trial joins its type's trials on the track; the choice is made on their means (one
-    // trial's offset scatters by about 1 mm: 3-1/2" NC38 on seed 92).
-    et.trials.resize(cands.size());
-    std::vector<TypeTrial> trials = runTypeTrials(slot, cd, types, config, type_models);
-    for (TypeTrial& t : trials) {
-      if (t.ok) et.trials[t.type].add(t.offset, 0.0);
-      t.ok = et.trials[t.type].count() > 0;
-      t.offset = et.trials[t.type].mean();
-    }
-    const int chosen = chooseTrial(trials, config.typing, start);
-    // The configured type is left only on kSettled trial rounds of both: one or two rounds of a
-    // 5" NC50 pin end read as 7" through the node (estimator_replay rostest, seed 3).
-    const bool enough = et.type != start ||
-                        (chosen >= 0 && et.trials[chosen].count() >= static_cast<size_t>(kSettled) &&
-                         et.trials[start].count() >= static_cast<size_t>(kSettled));
-    if (chosen >= 0 && chosen != et.type && enough) return chosen;
+  const bool sure = et.measured.count() >= 2 * enough &&
+                    jointOdProbability(radiusProbabilities({&et.measured}, cands, config.typing),
+                                       cands, et.type) >= sp;
+  const bool due = !sure || ++et.decisions % kSettled == 0;
+  if (cands.size() > 1 && due) {
+    const RadiusSearch rs = measureJointRadius(slot, cd, et.type, config, radius_models);
+    if (rs.ok) et.measured.add(rs.radius, 0.0);
+  }
+  const double od = cands[et.type].dims.tool_joint_od;
+  const auto same_od = [&](int k) { return std::abs(cands[k].dims.tool_joint_od - od) < 1e-3; };
+  if (et.measured.count() >= enough) {
+    // A connection is made up within one type: the other end's searched radii count too,
+    // unless each end alone is sure of a joint OD of its own (two pipes of two sizes). A pin end
+    // lying on the catwalk reads its radius 65-100 mm for a true 84 mm, its box end 81-85 mm
+    // (seed 92).
+    const std::vector<double> own = radiusProbabilities({&et.measured}, cands, config.typing);
+    const std::vector<double> theirs =
+        radiusProbabilities({&other.measured}, cands, config.typing);
+    const int own_top = topType(own), their_top = topType(theirs);
+    const bool apart = other.measured.count() < enough ||
+                       (jointOdProbability(own, cands, own_top) >= sp &&
+                        jointOdProbability(theirs, cands, their_top) >= sp &&
+                        std::abs(cands[own_top].dims.tool_joint_od -
+                                 cands[their_top].dims.tool_joint_od) >= 1e-3);
+    const std::vector<double> pm =
+        apart ? own : radiusProbabilities({&et.measured, &other.measured}, cands, config.typing);
+    const int top = topType(pm);
+    const double p_current = jointOdProbability(pm, cands, et.type);
+    if (top >= 0 && !same_od(top) && (pm[top] >= sp || p_current < 1.0 - sp)) return top;
   }
   const int top = topType(p);
-  const double sp = config.typing.switch_probability;
-  if (top >= 0 && top != et.type &&
-      et.evidence.joint.count() >= static_cast<size_t>(config.typing.min_measurements) &&
-      std::abs(cands[top].dims.tool_joint_od - cands[et.type].dims.tool_joint_od) < 1e-3 &&
+  if (top >= 0 && top != et.type && et.evidence.joint.count() >= enough && same_od(top) &&
       (p[top] >= sp || p[et.type] < 1.0 - sp))
     return top;
   return et.type;
@@ -414,15 +420,15 @@ int nextType(int slot, const Candidate& cd, const std::vector<PipeCandidate>& ca
 /// fit moved to another end, and with it the end's instance id: the id of the other end's
 /// track (`labels`' others) where one follows it, else a new one from *next_id.
 void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
-                 const std::vector<PipeCandidate>& cands, int start, int64_t stamp_ns,
-                 const EstimatorConfig& config, TypeModelCache* type_models,
-                 const std::array<LabelState, kNumEnds>& labels, EndType* et,
-                 EndPoseFilter* filter, uint32_t* next_id, EndEstimate* e) {
+                 const std::vector<PipeCandidate>& cands, int64_t stamp_ns,
+                 const EstimatorConfig& config, RadiusModelCache* radius_models,
+                 const std::array<LabelState, kNumEnds>& labels, const EndType& other,
+                 EndType* et, EndPoseFilter* filter, uint32_t* next_id, EndEstimate* e) {
   if (!e->valid) {
     if (et->last_valid_ns > 0 &&
         static_cast<double>(stamp_ns - et->last_valid_ns) * 1e-9 > config.tracking.max_gap) {
       et->evidence.reset();
-      et->trials.clear();
+      et->measured = RadiusMean();
       et->id = 0;
     }
     return;
@@ -433,7 +439,7 @@ void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
   if (cd && et->id != 0 && (cd->fit.origin - et->last_origin).norm() > config.instances.track_gate) {
     et->id = 0;
     et->evidence.reset();
-    et->trials.clear();
+    et->measured = RadiusMean();
   }
   if (cd) et->last_origin = cd->fit.origin;
   // An end that another track follows (an OtherEnd) keeps that track's id as the primary end.
@@ -456,7 +462,7 @@ void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
   }
   std::vector<double> p = et->evidence.probabilities(cands, config.typing, et->type);
   if (config.typing.enabled && cd && !cd->tracked && et->evidence.joint.count() > 0) {
-    const int next = nextType(slot, *cd, cands, p, start, et, config, type_models);
+    const int next = nextType(slot, *cd, cands, p, other, et, config, radius_models);
     if (next != et->type) {
       et->type = next;
       filter->reset();
@@ -635,8 +641,8 @@ void shareConnectionType(std::array<EndType, kNumEnds>* types,
   for (int slot = 0; slot < kNumEnds; ++slot) {
     EndType& et = (*types)[slot];
     const EndType& other = (*types)[1 - slot];
-    if (et.evidence.joint.count() > 0 || !et.trials.empty() || other.type == et.type ||
-        (other.evidence.joint.count() == 0 && other.trials.empty()))
+    if (et.evidence.joint.count() > 0 || et.measured.count() > 0 || other.type == et.type ||
+        (other.evidence.joint.count() == 0 && other.measured.count() == 0))
       continue;
     et.type = other.type;
     (*filters)[slot].reset();
@@ -738,8 +744,9 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
   for (int slot = 0; slot < kNumEnds; ++slot) {
     const Candidate* cd = owner[slot] < 0 ? nullptr : &cand[owner[slot]];
     outputEnd(slot, cd, cand, cams, stamp_ns, &state.filters[slot], config_, &result);
-    classifyEnd(slot, cd, models, impl_->candidates, impl_->start, stamp_ns, config_,
-                &impl_->type_models, state.labels, &state.types[slot], &state.filters[slot],
+    classifyEnd(slot, cd, models, impl_->candidates, stamp_ns, config_,
+                &impl_->radius_models, state.labels, state.types[1 - slot], &state.types[slot],
+                &state.filters[slot],
                 &state.next_id, &result.ends[slot]);
   }
   shareConnectionType(&state.types, &state.filters, config_.typing);

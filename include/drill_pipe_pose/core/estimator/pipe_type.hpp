@@ -5,19 +5,19 @@
 // end's measurements on its track are averaged, and each allowed type
 // (EstimatorConfig::candidates) gets the likelihood of those means, per measured surface:
 //   d = mean - R_type, taken as 0 for a joint worn by up to typing.wear below R_type,
-//   log L = -d^2 / (2 (s^2 / n + typing.systematic^2)),
+//   log L = -d^2 / (2 (s^2 / n + max(typing.systematic, s / 2)^2)),
 // s the measurements' spread, n their number: the part every measurement shares (the sensor's
 // depth bias, paint) does not average out, so the evidence never grows past typing.systematic.
 // The tube counts from typing.min_measurements measurements on (a glimpse of tube is not one),
 // and only among the types that share the current model's joint OD: measured against a model of
-// another size, a surface reads about halfway between the two.
-// The mean measured against the current model decides among the types of its joint OD; another
-// OD is decided by type trials (trialTypes, chooseTrial): the end refitted with each nearby
-// type's model and measured against it.
+// another size, a surface reads only part of the way to its own radius.
+// For that reason the joint OD is decided on searched radii (searchRadius): at the track's
+// decisions the end is refitted with models of other radii until one explains the points.
 // Types whose joints the data cannot tell apart (4-1/2" NC50 and 5" NC50: both 6-5/8" OD) keep
 // equal probabilities: the top one is then ambiguous and published as such, never confidently.
 
 #include <cstddef>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -46,42 +46,29 @@ struct TypingConfig {
   double switch_probability = 0.9;
   /// ...and the mean holds at least this many measurements.
   int min_measurements = 5;
-  /// A type trial (TypeTrial) replaces the end's type only when the other type's joint explains
-  /// the points better by this much [m] of radius (chosen on the thesis_vertical seed-92 bags
-  /// of every catalogue size, see chooseTrial; one trial's offset scatters by about 0.5 mm).
-  double trial_margin = 0.00025;
-  /// [m] the configured type (tool_joint/type, the string the rig runs) needs a trial this much
-  /// worse than another's to be left, and wins this much back: a 5" NC50 joint worn 3 mm reads
-  /// up to 1.9 mm thin on its pin end, about as near the 6-3/8" joint's radius 3.2 mm below
-  /// (thesis_vertical_worn, seeds 94 and 95), and through the node at quarter speed a 5" NC50
-  /// pin end read as the 7" joint 4.8 mm above (estimator_replay rostest, seed 3): 5 mm.
-  double prior_margin = 0.005;
 };
 
-/// One type tried at a decision: the end refitted with the type's model from its current pose,
-/// and its joint's radius measured against that model (radiusOffset).
-struct TypeTrial {
-  int type = -1;      ///< index into the candidates
-  bool ok = false;    ///< the refit converged and the radius was measured
-  double offset = 0;  ///< [m] measured minus the type's joint radius (a thinner joint: negative)
+/// The result of a radius search (searchRadius).
+struct RadiusSearch {
+  bool ok = false;
+  double radius = 0.0;  ///< [m] the joint's measured radius
+  int refits = 0;       ///< models the end was refitted with
+  /// The secant's last gain, -d offset / dR: how far a reading moves toward the joint's own
+  /// radius per unit of model radius (1: all the way).
+  double gain = 0.0;
 };
 
-/// The types worth a trial for an end fitted with type `current` whose joint reads `mean` [m]
-/// (the evidence's mean radius, measured against the current model): the current type first,
-/// then one per other joint OD (the first such candidate) on the reading's side of the current
-/// radius and within three times its deviation (measured against a model of another size, a
-/// joint reads about halfway between the two).
-std::vector<int> trialTypes(const std::vector<PipeCandidate>& candidates, int current,
-                            double mean, const TypingConfig& config);
-
-/// The trial whose joint fits its own model best: the smallest offset beyond the wear allowance
-/// (a joint up to typing.wear thinner than its model counts as a fit), plus a quarter of the
-/// whole offset (of two types that both pass for worn, the one nearer the reading), less
-/// typing.prior_margin for the `preferred` type (the configured one). The current type (the
-/// first trial) stays unless another beats it by typing.trial_margin. Returns a candidate
-/// index, or -1 when no trial is ok.
-int chooseTrial(const std::vector<TypeTrial>& trials, const TypingConfig& config,
-                int preferred = -1);
+/// The joint radius R at which a model of that radius explains the points: the root of
+/// offset(R), the radius offset measured against a model of joint radius R after the end is
+/// refitted with it (`offset_at(R, &offset)`, false when the refit or the measurement fails).
+/// Measured against a model of the wrong size, a joint reads only part of the way to its own
+/// radius (about halfway in the thesis lab, a seventh of the way on the catwalk, where the
+/// points outside the smaller model's silhouette drop out), so one measurement is not the
+/// radius; the search steps along the secant of offset(R), starting from r0 with the
+/// halfway gain, until the offset is below 0.2 mm or after 5 refits, and stays in
+/// [r_min, r_max]. The radius is the last R plus its offset over the secant's gain.
+RadiusSearch searchRadius(const std::function<bool(double, double*)>& offset_at, double r0,
+                          double r_min, double r_max);
 
 /// Measurements of one radius on an end's track.
 class RadiusMean {
@@ -110,6 +97,17 @@ struct TypeEvidence {
   std::vector<double> probabilities(const std::vector<PipeCandidate>& candidates,
                                     const TypingConfig& config, int current = -1) const;
 };
+
+/// Probability of each candidate's joint radius on the product of the likelihoods of
+/// `means` (each a RadiusMean of absolute radii; the empty ones are left out), uniform without
+/// a measurement.
+std::vector<double> radiusProbabilities(const std::vector<const RadiusMean*>& means,
+                                        const std::vector<PipeCandidate>& candidates,
+                                        const TypingConfig& config);
+
+/// The summed probability of the candidates whose joint OD is that of candidate `of`.
+double jointOdProbability(const std::vector<double>& probabilities,
+                          const std::vector<PipeCandidate>& candidates, int of);
 
 /// The index of the largest probability (the first of equals); -1 when empty.
 int topType(const std::vector<double>& probabilities);
