@@ -189,7 +189,7 @@ class EstimatorReplay(unittest.TestCase):
         for r in csv.DictReader(open(cycles_csv)):
             c = bench.setdefault(int(r["stamp_ns"]), {"cams": frozenset(r["cameras"].split("+"))})
             c[r["end"]] = (int(r["valid"]), [float(r[k]) for k in ("x", "y", "z", "qx", "qy", "qz", "qw")])
-        # Tracks, type trials and per-track averages carry state from cycle to cycle, so the node
+        # Tracks, radius searches and per-track averages carry state from cycle to cycle, so the node
         # and the bench agree exactly only while they have fused the same frames. Compare every
         # cycle up to the first one the node fused differently, and say where that was. A frame
         # lost at the start is the transport's, not the estimator's: the node subscribes afresh

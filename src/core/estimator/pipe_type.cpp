@@ -83,7 +83,7 @@ std::vector<double> TypeEvidence::probabilities(const std::vector<PipeCandidate>
 
 RadiusSearch searchRadius(const std::function<bool(double, double*)>& offset_at, double r0,
                           double r_min, double r_max) {
-  // [m] an offset this small is the radius (a trial's offset scatters by about 0.5 mm);
+  // [m] an offset this small is the radius (one refit's offset scatters by about 0.5 mm);
   // refits at most; the gain offset / (R_true - R) assumed before a second point gives the
   // secant, and the range the secant's gain is kept in (a steeper or flatter secant is noise).
   constexpr double kTolerance = 0.0002;

@@ -356,6 +356,21 @@ void outputEnd(int slot, const Candidate* cd, const std::array<Candidate, kNumEn
   sup.addTo(&e, config);
 }
 
+/// The probability of each candidate on end `et`'s searched radii. A connection is made up
+/// within one type: while an end's own radii are not sure of a joint OD
+/// (typing.switch_probability), the other end's count too. A pin end lying on the catwalk reads
+/// its radius 65-100 mm for a true 84 mm, its box end 81-85 mm (seed 92); two pipes of two sizes
+/// each read their own.
+std::vector<double> searchedProbabilities(const EndType& et, const EndType& other,
+                                          const std::vector<PipeCandidate>& cands,
+                                          const TypingConfig& tc) {
+  const std::vector<double> own = radiusProbabilities({&et.measured}, cands, tc);
+  if (other.measured.count() < static_cast<size_t>(std::max(1, tc.min_measurements)) ||
+      jointOdProbability(own, cands, topType(own)) >= tc.switch_probability)
+    return own;
+  return radiusProbabilities({&et.measured, &other.measured}, cands, tc);
+}
+
 /// The type end `slot` takes at a decision. The joint's radius is searched for at the
 /// decision (measureJointRadius: the end refitted with models of other radii until one explains
 /// the points) and averaged on the track; measured against its own model alone, a joint of
@@ -385,21 +400,7 @@ int nextType(int slot, const Candidate& cd, const std::vector<PipeCandidate>& ca
   const double od = cands[et.type].dims.tool_joint_od;
   const auto same_od = [&](int k) { return std::abs(cands[k].dims.tool_joint_od - od) < 1e-3; };
   if (et.measured.count() >= enough) {
-    // A connection is made up within one type: the other end's searched radii count too,
-    // unless each end alone is sure of a joint OD of its own (two pipes of two sizes). A pin end
-    // lying on the catwalk reads its radius 65-100 mm for a true 84 mm, its box end 81-85 mm
-    // (seed 92).
-    const std::vector<double> own = radiusProbabilities({&et.measured}, cands, config.typing);
-    const std::vector<double> theirs =
-        radiusProbabilities({&other.measured}, cands, config.typing);
-    const int own_top = topType(own), their_top = topType(theirs);
-    const bool apart = other.measured.count() < enough ||
-                       (jointOdProbability(own, cands, own_top) >= sp &&
-                        jointOdProbability(theirs, cands, their_top) >= sp &&
-                        std::abs(cands[own_top].dims.tool_joint_od -
-                                 cands[their_top].dims.tool_joint_od) >= 1e-3);
-    const std::vector<double> pm =
-        apart ? own : radiusProbabilities({&et.measured, &other.measured}, cands, config.typing);
+    const std::vector<double> pm = searchedProbabilities(et, other, cands, config.typing);
     const int top = topType(pm);
     const double p_current = jointOdProbability(pm, cands, et.type);
     if (top >= 0 && !same_od(top) && (pm[top] >= sp || p_current < 1.0 - sp)) return top;
@@ -410,6 +411,9 @@ int nextType(int slot, const Candidate& cd, const std::vector<PipeCandidate>& ca
     return top;
   return et.type;
 }
+
+/// Searched radii an end needs before they can withhold its pose (classifyEnd).
+constexpr size_t kMinSearched = 2;
 
 /// Stage "pipe type" for end `slot` with its candidate `cd` (null: none this cycle): the
 /// tool-joint radius measured with the pose eliminated (radiusOffset, absolute: the model's
@@ -479,6 +483,22 @@ void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
   e->type_measurements = et->evidence.joint.count();
   e->measured_tube_od = 2 * et->evidence.tube.mean();
   e->tube_measurements = et->evidence.tube.count();
+  // A joint whose searched radii say it is not its model's size is fitted with the wrong model:
+  // its pose is biased, or lies on another joint (a 6-5/8" FH box end 8-1/4" OD, fitted with
+  // the 5" NC50 model, on the pin end 1.5 m away: thesis_vertical, seed 92). Not published
+  // until the end has the type its radius says.
+  if (config.typing.enabled && et->measured.count() >= kMinSearched) {
+    const std::vector<double> pm = searchedProbabilities(*et, other, cands, config.typing);
+    if (jointOdProbability(pm, cands, et->type) < 1.0 - config.typing.switch_probability) {
+      std::ostringstream s;
+      s.precision(4);
+      s << "pipe type being measured: the joint's radius searches read " << 2e3 * et->measured.mean()
+        << " mm OD (" << et->measured.count() << " of them), unlikely for the model it is fitted with ("
+        << cands[et->type].name << ", " << 1e3 * cands[et->type].dims.tool_joint_od << " mm)";
+      e->valid = false;
+      e->reason = s.str();
+    }
+  }
 }
 
 /// Stage "other ends" (several pipes at once): each label's other fits (fitLabel) published in
