@@ -8,7 +8,6 @@
 
 #include "drill_pipe_pose/core/errors.hpp"
 
-
 namespace drill_pipe_pose {
 
 const ProfileModel* RadiusModelCache::at(int slot, double* radius) {
@@ -44,8 +43,8 @@ namespace {
 /// The points of `cd` a search refits: those clear of a level support, subsampled to about
 /// profile_fit.coarse_points.
 void searchPoints(const Candidate& cd, const EstimatorConfig& config,
-                 std::vector<Eigen::Vector3f>* pts, std::vector<Eigen::Vector3f>* eyes,
-                 std::vector<float>* sig) {
+                  std::vector<Eigen::Vector3f>* pts, std::vector<Eigen::Vector3f>* eyes,
+                  std::vector<float>* sig) {
   // The points the pose refinement uses (those clear of a level support), subsampled as the
   // coarse stages are, with the refinement's full iterations: every point made the refits cost
   // as much as the rest of the cycle on the cluttered scene (its tracks restart often), and the
