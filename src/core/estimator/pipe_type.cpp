@@ -48,28 +48,19 @@ double RadiusMean::logLikelihood(double radius, double wear, double systematic) 
 
 std::vector<double> TypeEvidence::probabilities(const std::vector<PipeCandidate>& candidates,
                                                 const TypingConfig& config, int current) const {
-  std::vector<double> p(candidates.size(), candidates.empty() ? 0.0 : 1.0 / candidates.size());
+  std::vector<double> p = radiusProbabilities({&joint}, candidates, config);
   if (joint.count() == 0 || candidates.empty()) return p;
-  std::vector<double> logl(candidates.size());
-  for (size_t k = 0; k < candidates.size(); ++k)
-    logl[k] = joint.logLikelihood(candidates[k].dims.tool_joint_od / 2, config.wear,
-                                  config.systematic);
-  const double top = *std::max_element(logl.begin(), logl.end());
-  double total = 0;
-  for (size_t k = 0; k < p.size(); ++k) total += p[k] = std::exp(logl[k] - top);
-  for (double& v : p) v /= total;
   // The tube splits the probability of the types that share the current type's joint OD (it is
   // measured against the current model's tube: against another size's it reads halfway, like
   // the joint). A tube does not wear: no allowance.
   if (current < 0 || current >= static_cast<int>(candidates.size()) ||
       tube.count() < static_cast<size_t>(config.min_measurements))
     return p;
-  const double od = candidates[current].dims.tool_joint_od;
   std::vector<size_t> group;
   double group_p = 0, best = -std::numeric_limits<double>::infinity();
   std::vector<double> tl(candidates.size(), 0.0);
   for (size_t k = 0; k < candidates.size(); ++k)
-    if (std::abs(candidates[k].dims.tool_joint_od - od) < kSameJointOd) {
+    if (sameJointOd(candidates[k], candidates[current])) {
       group.push_back(k);
       group_p += p[k];
       tl[k] = tube.logLikelihood(candidates[k].dims.tube_od / 2, 0.0, config.systematic);
@@ -135,10 +126,12 @@ double jointOdProbability(const std::vector<double>& probabilities,
   if (of < 0 || of >= static_cast<int>(candidates.size())) return 0.0;
   double sum = 0;
   for (size_t k = 0; k < candidates.size() && k < probabilities.size(); ++k)
-    if (std::abs(candidates[k].dims.tool_joint_od - candidates[of].dims.tool_joint_od) <
-        kSameJointOd)
-      sum += probabilities[k];
+    if (sameJointOd(candidates[k], candidates[of])) sum += probabilities[k];
   return sum;
+}
+
+bool sameJointOd(const PipeCandidate& a, const PipeCandidate& b) {
+  return std::abs(a.dims.tool_joint_od - b.dims.tool_joint_od) < kSameJointOd;
 }
 
 int topType(const std::vector<double>& probabilities) {

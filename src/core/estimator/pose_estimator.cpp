@@ -397,8 +397,7 @@ int nextType(int slot, const Candidate& cd, const std::vector<PipeCandidate>& ca
     const RadiusSearch rs = measureJointRadius(slot, cd, et.type, config, radius_models);
     if (rs.ok) et.measured.add(rs.radius, 0.0);
   }
-  const double od = cands[et.type].dims.tool_joint_od;
-  const auto same_od = [&](int k) { return std::abs(cands[k].dims.tool_joint_od - od) < 1e-3; };
+  const auto same_od = [&](int k) { return sameJointOd(cands[k], cands[et.type]); };
   if (et.measured.count() >= enough) {
     const std::vector<double> pm = searchedProbabilities(et, other, cands, config.typing);
     const int top = topType(pm);

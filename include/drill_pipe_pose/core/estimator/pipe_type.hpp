@@ -105,6 +105,10 @@ std::vector<double> radiusProbabilities(const std::vector<const RadiusMean*>& me
                                         const std::vector<PipeCandidate>& candidates,
                                         const TypingConfig& config);
 
+/// Whether two candidates' joints are one size (ODs within 1 mm: the catalogue's differ by
+/// 3.2 mm or more where they differ).
+bool sameJointOd(const PipeCandidate& a, const PipeCandidate& b);
+
 /// The summed probability of the candidates whose joint OD is that of candidate `of`.
 double jointOdProbability(const std::vector<double>& probabilities,
                           const std::vector<PipeCandidate>& candidates, int of);
