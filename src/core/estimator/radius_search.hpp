@@ -3,6 +3,7 @@
 // tool-joint radii until one explains its points (searchRadius in pipe_type.hpp), so that a
 // joint's radius is measured, not read off the model it happens to be fitted with.
 
+#include <cstdint>
 #include <map>
 #include <memory>
 #include <utility>
@@ -27,8 +28,15 @@ class RadiusModelCache {
   const ProfileModel* at(int slot, double* radius);
 
  private:
+  /// Models kept at most: the searches of both ends' decisions reuse about 20.
+  static constexpr size_t kMaxModels = 32;
+  struct Entry {
+    std::unique_ptr<ProfileModel> model;  ///< null: that geometry does not hold
+    uint64_t last_use = 0;
+  };
   const std::vector<PipeCandidate>& candidates_;
-  std::map<std::pair<int, long>, std::unique_ptr<ProfileModel>> models_;
+  std::map<std::pair<int, long>, Entry> models_;
+  uint64_t uses_ = 0;
 };
 
 /// End `slot`'s tool-joint radius measured from its candidate `cd` fitted with type `type`
