@@ -113,10 +113,11 @@ const std::vector<PipeCandidate> kSizes{
 
 /// A joint of true radius `truth` as a search sees it: against a model of radius R it reads
 /// `gain` of the way from R to its own radius.
-std::function<bool(double, double*)> reading(double truth, double gain, int* calls) {
-  return [=](double r, double* offset) {
+std::function<bool(double, double*, double*)> reading(double truth, double gain, int* calls) {
+  return [=](double r, double* offset, double* std) {
     ++*calls;
     *offset = gain * (truth - r);
+    *std = 0.0005;
     return true;
   };
 }
@@ -134,6 +135,9 @@ TEST(RadiusSearch, FindsTheRadiusWhateverTheGain) {
       EXPECT_EQ(s.refits, calls);
       EXPECT_LE(s.refits, 5);
       EXPECT_NEAR(s.gain, gain, 1e-6);
+      // The offset's 0.5 mm, over the gain: a joint that reads a seventh of the way is
+      // measured seven times less precisely.
+      EXPECT_NEAR(s.std, 0.0005 / gain, 1e-9) << "gain " << gain;
     }
 }
 
@@ -144,23 +148,25 @@ TEST(RadiusSearch, StaysInItsRangeAndStopsOnAFailedRefit) {
   ASSERT_TRUE(s.ok);
   EXPECT_DOUBLE_EQ(s.radius, 0.115);
   // The first refit fails: no radius.
-  s = searchRadius([](double, double*) { return false; }, 0.084, 0.05, 0.115);
+  s = searchRadius([](double, double*, double*) { return false; }, 0.084, 0.05, 0.115);
   EXPECT_FALSE(s.ok);
   EXPECT_EQ(s.refits, 1);
   // A later one fails: the radius from the last good one, at the assumed halfway gain.
   calls = 0;
   s = searchRadius(
-      [&](double r, double* offset) {
+      [&](double r, double* offset, double* std) {
         *offset = 0.5 * (0.09 - r);
+        *std = calls == 0 ? 0.001 : 0.0001;
         return ++calls == 1;
       },
       0.084, 0.05, 0.115);
   ASSERT_TRUE(s.ok);
   EXPECT_NEAR(s.radius, 0.09, 1e-9);
   EXPECT_EQ(s.refits, 2);
+  EXPECT_NEAR(s.std, 0.001 / 0.5, 1e-9);  // the good refit's, not the failed one's
   // NaN offsets are failures.
   s = searchRadius(
-      [](double, double* offset) {
+      [](double, double* offset, double*) {
         *offset = std::nan("");
         return true;
       },

@@ -72,8 +72,8 @@ std::vector<double> TypeEvidence::probabilities(const std::vector<PipeCandidate>
   return p;
 }
 
-RadiusSearch searchRadius(const std::function<bool(double, double*)>& offset_at, double r0,
-                          double r_min, double r_max) {
+RadiusSearch searchRadius(const std::function<bool(double, double*, double*)>& offset_at,
+                          double r0, double r_min, double r_max) {
   // [m] an offset this small is the radius (one refit's offset scatters by about 0.5 mm);
   // refits at most; the gain offset / (R_true - R) assumed before a second point gives the
   // secant, and the range the secant's gain is kept in (a steeper or flatter secant is noise).
@@ -82,24 +82,26 @@ RadiusSearch searchRadius(const std::function<bool(double, double*)>& offset_at,
   constexpr double kGain0 = 0.5, kGainMin = 0.1, kGainMax = 1.5;
   RadiusSearch out;
   const auto clamp = [&](double r) { return std::min(r_max, std::max(r_min, r)); };
-  double r = clamp(r0), f = 0.0;
+  double r = clamp(r0), f = 0.0, f_std = 0.0;
   ++out.refits;
-  if (!offset_at(r, &f) || !std::isfinite(f)) return out;
+  if (!offset_at(r, &f, &f_std) || !std::isfinite(f)) return out;
   double gain = kGain0;
   while (std::abs(f) > kTolerance && out.refits < kMaxRefits) {
     const double r_next = clamp(r + f / gain);
     if (std::abs(r_next - r) < 1e-5) break;  // at the range's end
-    double f_next = 0.0;
+    double f_next = 0.0, f_next_std = 0.0;
     ++out.refits;
-    if (!offset_at(r_next, &f_next) || !std::isfinite(f_next)) break;
+    if (!offset_at(r_next, &f_next, &f_next_std) || !std::isfinite(f_next)) break;
     // offset(R) falls as R grows: gain = -d offset / dR.
     gain = std::min(kGainMax, std::max(kGainMin, (f - f_next) / (r_next - r)));
     r = r_next;
     f = f_next;
+    f_std = f_next_std;
   }
   out.ok = true;
   out.gain = gain;
   out.radius = clamp(r + f / gain);
+  out.std = std::isfinite(f_std) ? std::abs(f_std) / gain : 0.0;
   return out;
 }
 

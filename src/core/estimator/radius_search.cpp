@@ -95,7 +95,7 @@ RadiusSearch measureJointRadius(int slot, const Candidate& cd, int type,
   // catalogue, and says so, rather than stopping at its end.
   constexpr double kBeyond = 0.01;
   Eigen::Vector3d origin = cd.fit.origin, z = cd.fit.z;
-  const auto offset_at = [&](double r_asked, double* offset) {
+  const auto offset_at = [&](double r_asked, double* offset, double* std) {
     double r = r_asked;
     const ProfileModel* model = models->at(slot, &r);
     if (!model) return false;
@@ -107,6 +107,7 @@ RadiusSearch measureJointRadius(int slot, const Candidate& cd, int type,
     origin = f.origin;
     z = f.z;
     *offset = rc.offset + (r - r_asked);  // from the radius asked for, not the model's rounded one
+    *std = rc.std;
     return true;
   };
   return searchRadius(offset_at, models->candidate(type).dims.tool_joint_od / 2,

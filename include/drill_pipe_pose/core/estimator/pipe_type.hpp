@@ -56,19 +56,23 @@ struct RadiusSearch {
   /// The secant's last gain, -d offset / dR: how far a reading moves toward the joint's own
   /// radius per unit of model radius (1: all the way).
   double gain = 0.0;
+  /// [m] the radius's standard deviation: the last offset's over the gain.
+  double std = 0.0;
 };
 
 /// The joint radius R at which a model of that radius explains the points: the root of
 /// offset(R), the radius offset measured against a model of joint radius R after the end is
-/// refitted with it (`offset_at(R, &offset)`, false when the refit or the measurement fails).
+/// refitted with it (`offset_at(R, &offset, &std)`, with the offset's standard deviation; false
+/// when the refit or the measurement fails).
 /// Measured against a model of the wrong size, a joint reads only part of the way to its own
 /// radius (about halfway in the thesis lab, a seventh of the way on the catwalk, where the
 /// points outside the smaller model's silhouette drop out), so one measurement is not the
 /// radius; the search steps along the secant of offset(R), starting from r0 with the
 /// halfway gain, until the offset is below 0.2 mm or after 5 refits, and stays in
-/// [r_min, r_max]. The radius is the last R plus its offset over the secant's gain.
-RadiusSearch searchRadius(const std::function<bool(double, double*)>& offset_at, double r0,
-                          double r_min, double r_max);
+/// [r_min, r_max]. The radius is the last R plus its offset over the secant's gain, and so is
+/// its standard deviation.
+RadiusSearch searchRadius(const std::function<bool(double, double*, double*)>& offset_at,
+                          double r0, double r_min, double r_max);
 
 /// Measurements of one radius on an end's track.
 class RadiusMean {
