@@ -226,10 +226,12 @@ Candidate fitLabel(const CycleContext& ctx, int l, const std::vector<CloudPoint>
   // not take its neighbour's before the neighbour's track does.
   std::vector<bool> taken(clusters.size(), false);
   if (track_k >= 0) taken[static_cast<size_t>(track_k)] = true;
+  std::vector<bool> reported(clusters.size(), false);  // an other end's fit of it was accepted
   for (const auto& [s, k] : followedClusters(ctx, state->others, clusters, carved, taken)) {
     taken[k] = true;
     others->push_back({static_cast<int>(s), InstanceFitter(ctx, l, pointsOf(k))
                                                 .fit(state->others[s].track, true, timing)});
+    reported[k] = others->back().cd.ok;
   }
   // The instances decided this cycle: the track's (when its fit is not simply tracked: a
   // periodic decision, or the track was lost) and the largest others (those the other ends
@@ -245,18 +247,24 @@ Candidate fitLabel(const CycleContext& ctx, int l, const std::vector<CloudPoint>
     inst.push_back(std::move(c));
   }
   const size_t max_instances = static_cast<size_t>(config.instances.max_instances);
+  std::vector<size_t> inst_cluster;  // the cluster of each decided instance
+  if (track_k >= 0) inst_cluster.push_back(static_cast<size_t>(track_k));
   for (size_t k = 0; k < clusters.size() && inst.size() < max_instances; ++k) {
     if (static_cast<int>(k) == track_k) continue;
     inst.push_back(InstanceFitter(ctx, l, pointsOf(k)).fit(state->track, false, timing));
+    inst_cluster.push_back(k);
   }
   int chosen = -1;
   cd = chooseCandidate(ctx, l, inst, track_k >= 0, raw, &state->memory, &chosen);
-  // The decision's other valid fits of this label's model start ends of their own (where an
-  // other end already follows one, outputOthers drops it as a duplicate).
+  // The decision's other valid fits of this label's model start ends of their own, except on a
+  // cluster whose other end's fit was accepted this cycle: one cluster is one end, and the
+  // decision's fit of it may lie elsewhere along the axis (beyond instances.track_gate, where
+  // outputOthers would not see it as the same end: a second end 0.27 m along a lying pipe's
+  // axis from its true one, catwalk_twin seed 120).
   const size_t max_others = static_cast<size_t>(config.instances.max_other_ends);
   for (size_t k = 0; k < inst.size(); ++k)
     if (static_cast<int>(k) != chosen && inst[k].ok && static_cast<int>(inst[k].fit.label) == l &&
-        state->others.size() + others->size() < 2 * max_others)
+        !reported[inst_cluster[k]] && state->others.size() + others->size() < 2 * max_others)
       others->push_back({-1, std::move(inst[k])});
   return cd;
 }

@@ -39,6 +39,14 @@ struct EndType {
   int64_t last_valid_ns = 0;  ///< capture stamp of the end's last valid cycle
   uint32_t id = 0;            ///< the end's instance id (0: no track)
   Eigen::Vector3d last_origin = Eigen::Vector3d::Zero();  ///< [m] of its last valid fit
+  /// The id went with the end to an other end while this one had no pose (outputOthers): a
+  /// later fit elsewhere is another end all the same (its evidence restarts).
+  bool handed_off = false;
+  /// The id of the end this one left (its fit moved to another end), for that end's next fit
+  /// as an other end within tracking.max_gap: (id, its last origin [m], capture stamp).
+  uint32_t released_id = 0;
+  Eigen::Vector3d released_origin = Eigen::Vector3d::Zero();
+  int64_t released_ns = 0;
 };
 
 /// Everything that lives across cycles, in one place (reset() clears it).
@@ -440,17 +448,25 @@ void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
       et->evidence.reset();
       et->measured = RadiusMean();
       et->id = 0;
+      et->handed_off = false;
     }
     return;
   }
   et->last_valid_ns = stamp_ns;
   // The label's fit moved to another end (several pipes in view, its track lost): another
   // instance, with an id and evidence of its own.
-  if (cd && et->id != 0 && (cd->fit.origin - et->last_origin).norm() > config.instances.track_gate) {
+  if (cd && (et->id != 0 || et->handed_off) &&
+      (cd->fit.origin - et->last_origin).norm() > config.instances.track_gate) {
+    if (et->id != 0) {
+      et->released_id = et->id;
+      et->released_origin = et->last_origin;
+      et->released_ns = stamp_ns;
+    }
     et->id = 0;
     et->evidence.reset();
     et->measured = RadiusMean();
   }
+  et->handed_off = false;
   if (cd) et->last_origin = cd->fit.origin;
   // An end that another track follows (an OtherEnd) keeps that track's id as the primary end.
   if (et->id == 0 && cd)
@@ -507,10 +523,49 @@ void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
   }
 }
 
+/// A new other fit of label l at `origin` (no track of it followed its cluster) that lies on an
+/// end already known keeps that end's id. (Two identical pipes side by side: the primary end
+/// moves between them, and without these rules their ends took a new id in a fifth of the
+/// consecutive cycle pairs; found on catwalk_twin seed 120, held out on 93, 121 and 122.) Within
+/// instances.track_gate of, in this order:
+///  1. an other end's track that no fit follows this cycle (its own fit failed, or a decision
+///     fitted its cluster): the fit continues it;
+///  2. the primary end's last pose while the primary has none this cycle: the id goes with the
+///     end (the primary takes it back from the other end's track when it returns there);
+///  3. the end the primary left within tracking.max_gap (its fit moved to another end).
+void continueKnownEnd(int l, const Eigen::Vector3d& origin, int64_t stamp_ns,
+                      const EstimatorConfig& config, std::vector<bool>* followed,
+                      EstimatorState* state, OtherFit* f) {
+  const double gate = config.instances.track_gate;
+  const std::vector<OtherEnd>& others = state->labels[l].others;
+  for (size_t s = 0; s < others.size(); ++s) {
+    const Track& tr = others[s].track;
+    if ((*followed)[s] || tr.model != static_cast<EndLabel>(l) ||
+        (tr.predict(stamp_ns, config.tracking.max_prediction) - origin).norm() > gate)
+      continue;
+    (*followed)[s] = true;
+    f->other = static_cast<int>(s);
+    return;
+  }
+  EndType& et = state->types[l];
+  if (et.id != 0 && et.last_valid_ns != stamp_ns && (et.last_origin - origin).norm() <= gate) {
+    f->id = et.id;
+    et.id = 0;
+    et.handed_off = true;
+    return;
+  }
+  if (et.released_id != 0 && (et.released_origin - origin).norm() <= gate &&
+      static_cast<double>(stamp_ns - et.released_ns) * 1e-9 <= config.tracking.max_gap) {
+    f->id = et.released_id;
+    et.released_id = 0;
+  }
+}
+
 /// Stage "other ends" (several pipes at once): each label's other fits (fitLabel) published in
 /// result->others with their own instance ids and their own type evidence (measured against the
 /// label's model, whose type they are given). A fit within instances.track_gate of an end
-/// already published this cycle is the same end, and is dropped. A track without a fit for
+/// already published this cycle is the same end, and is dropped; a new fit on an end known
+/// otherwise keeps that end's id (continueKnownEnd). A track without a fit for
 /// tracking.max_gap is forgotten (its id is never reused).
 void outputOthers(std::array<std::vector<OtherFit>, kNumEnds>* fits, EstimatorState* state,
                   const EndModels& models, const std::vector<PipeCandidate>& cands,
@@ -526,6 +581,10 @@ void outputOthers(std::array<std::vector<OtherFit>, kNumEnds>* fits, EstimatorSt
   };
   for (int l = 0; l < kNumEnds; ++l) {
     LabelState& ls = state->labels[l];
+    // Other ends that a fit of this cycle follows: the others may still be met by a new fit.
+    std::vector<bool> followed(ls.others.size(), false);
+    for (const OtherFit& f : (*fits)[l])
+      if (f.other >= 0) followed[static_cast<size_t>(f.other)] = true;
     for (OtherFit& f : (*fits)[l]) {
       const Candidate& cd = f.cd;
       // A fit that lies farther than instances.track_gate from the end's predicted origin is of
@@ -538,9 +597,12 @@ void outputOthers(std::array<std::vector<OtherFit>, kNumEnds>* fits, EstimatorSt
       }
       const bool ok = cd.ok && static_cast<int>(cd.fit.label) == l && !duplicate(cd.fit.origin);
       if (!ok) continue;
+      if (f.other < 0 && f.id == 0)
+        continueKnownEnd(l, cd.fit.origin, stamp_ns, config, &followed, state, &f);
       if (f.other < 0) {
         if (ls.others.size() >= static_cast<size_t>(config.instances.max_other_ends)) continue;
         ls.others.push_back(OtherEnd());
+        followed.push_back(true);
         ls.others.back().id = f.id != 0 ? f.id : state->next_id++;
         f.other = static_cast<int>(ls.others.size()) - 1;
       }
