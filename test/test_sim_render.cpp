@@ -529,6 +529,30 @@ TEST(SimScenario, RandomPosesCoverTheSpec) {
   EXPECT_GT(hanging, 8);
 }
 
+// sodium_rust_poses.yaml: standing_fraction 0.5 for both joints (the pin's hanging drawn first),
+// standing_height [0.15, 0.7] m. A standing end is upright within 5 deg with its origin 0.15 m
+// or more above the floor; below 0.5 m (under either end's resting height, 0.54 and 0.62 m) only
+// a standing pose, sunk in the floor, can be.
+TEST(SimScenario, StandingPosesStandInTheFloor) {
+  RigSimulator sim(loadRigCalibration(kRig), loadSceneConfig(scenePath("sodium_rust_poses")),
+                   SimulatorOptions());
+  int sunk = 0, upright = 0, n = 0;
+  for (int i = 0; i < 30; ++i) {
+    for (const auto& t : sim.groundTruth(4.0 * i + 2.0)) {
+      const double zz = t.T_world_end.linear().col(2).z(), h = t.T_world_end.translation().z();
+      ++n;
+      if (zz < std::cos(5.0 * M_PI / 180) - 1e-9) continue;
+      ++upright;
+      EXPECT_GE(h, 0.15 - 1e-9) << "pose " << i << " label " << static_cast<int>(t.label);
+      sunk += h < 0.5;
+    }
+  }
+  EXPECT_EQ(n, 60);
+  // Expected about 25 standing poses (15 box, 10.5 pin), 64 % of them under 0.5 m: 16.
+  EXPECT_GE(sunk, 8) << upright << " upright";
+  EXPECT_LE(sunk, 26) << upright << " upright";
+}
+
 TEST(SimScenario, BadFilesNameFileKeyAndExpectation) {
   auto message = [](const std::string& text) {
     try {

@@ -96,6 +96,12 @@ struct RandomPoseSpec {
   Eigen::Vector2d half_extent = Eigen::Vector2d(1.0, 1.0);
   Eigen::Vector2d tilt_deg = Eigen::Vector2d(0.0, 90.0);
   double hanging_fraction = 0.3;
+  // Share of the poses standing upright (tilt 0-5 deg) in the floor, as a stump stands in the
+  // slips or a joint in the mousehole: the end's origin standing_height above the floor (the rest
+  // of the pipe below it; at most the height at which it rests on the floor). Drawn after
+  // hanging_fraction; 0 draws nothing, so a scene without it keeps its poses.
+  double standing_fraction = 0.0;
+  Eigen::Vector2d standing_height = Eigen::Vector2d(1e9, 1e9);  // default: resting on the floor
   Eigen::Vector2d clearance = Eigen::Vector2d(0.05, 1.0);
   double min_separation = 1.0;
 };
@@ -118,14 +124,20 @@ std::vector<Eigen::Isometry3d> generateRandomPoses(
     Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
     for (int attempt = 0; attempt < 200; ++attempt) {
       const bool hanging = pipe.end == EndLabel::kPinEnd && rng.chance(s.hanging_fraction);
-      const double tilt = hanging ? M_PI - rng.uniform(0.0, 15.0) * M_PI / 180.0
-                                  : rng.uniform(s.tilt_deg[0], s.tilt_deg[1]) * M_PI / 180.0;
+      const bool standing =
+          !hanging && s.standing_fraction > 0 && rng.chance(s.standing_fraction);
+      const double tilt = hanging    ? M_PI - rng.uniform(0.0, 15.0) * M_PI / 180.0
+                          : standing ? rng.uniform(0.0, 5.0) * M_PI / 180.0
+                                     : rng.uniform(s.tilt_deg[0], s.tilt_deg[1]) * M_PI / 180.0;
       const double yaw = rng.uniform(0.0, 2.0 * M_PI), roll = rng.uniform(0.0, 2.0 * M_PI);
       const Eigen::Vector3d z(std::sin(tilt) * std::cos(yaw), std::sin(tilt) * std::sin(yaw),
                               std::cos(tilt));
       const Eigen::Vector2d xy(s.centre.x() + rng.uniform(-1.0, 1.0) * s.half_extent.x(),
                                s.centre.y() + rng.uniform(-1.0, 1.0) * s.half_extent.y());
-      const double h = -lowestPoint(profile, z) + rng.uniform(s.clearance[0], s.clearance[1]);
+      const double rest = -lowestPoint(profile, z);
+      const double h =
+          standing ? std::min(rest, rng.uniform(s.standing_height[0], s.standing_height[1]))
+                   : rest + rng.uniform(s.clearance[0], s.clearance[1]);
       T = canonicalPose(Eigen::Vector3d(xy.x(), xy.y(), h), z);
       T.rotate(Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitZ()));
       bool ok = true;
@@ -187,6 +199,15 @@ Trajectory parseMotion(const YAML::Node& parent, const Eigen::Isometry3d& pose,
     if (r["tilt_deg"]) s.tilt_deg = yamlVector<2>(r["tilt_deg"], "tilt_deg", wr);
     if (r["clearance"]) s.clearance = yamlVector<2>(r["clearance"], "clearance", wr);
     s.hanging_fraction = yamlGetOr<double>(r, "hanging_fraction", s.hanging_fraction, wr);
+    s.standing_fraction = yamlGetOr<double>(r, "standing_fraction", s.standing_fraction, wr);
+    if (!(s.standing_fraction >= 0 && s.standing_fraction <= 1))
+      fail(wr, ": standing_fraction: expected 0..1");
+    if (r["standing_height"]) {
+      s.standing_height = yamlVector<2>(r["standing_height"], "standing_height", wr);
+      if (!(s.standing_height[0] > 0 && s.standing_height[0] <= s.standing_height[1] &&
+            s.standing_height[1] < 100))
+        fail(wr, ": standing_height: expected [min, max] with 0 < min <= max < 100 [m]");
+    }
     s.min_separation = yamlGetOr<double>(r, "min_separation", s.min_separation, wr);
     tr.pose_interval_s = s.interval_s;
     *random = true;

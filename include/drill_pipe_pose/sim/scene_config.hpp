@@ -54,12 +54,16 @@
 //             swing: {amplitude_deg: 3, period_s: 4, axis: [1, 0, 0], pivot_offset: [0, 0, 4]},
 //             random_poses: {count: 60, interval_s: 2, seed: 7, centre: [x, y],
 //                            half_extent: [1, 1], tilt_deg: [0, 90], hanging_fraction: 0.3,
-//                            clearance: [0.05, 1.0], min_separation: 1.0}}
+//                            clearance: [0.05, 1.0], min_separation: 1.0,
+//                            standing_fraction: 0, standing_height: [0.15, 0.7]}}
 //
 // random_poses (tool_joint only) draws `count` (1..100000) poses held `interval_s` each
 // (cycling): position uniform in centre +- half_extent, tilt from vertical uniform in
 // tilt_deg, any yaw and roll; a pin end hangs (points down, tilt <= 15 deg) with probability
-// hanging_fraction; the height puts the lowest point of the joint `clearance` above the floor;
+// hanging_fraction; else it stands upright (tilt <= 5 deg) in the floor with probability
+// standing_fraction (default 0), its origin standing_height above the floor (default, or when
+// higher: resting on the floor), the rest below it as a stump in the slips; else the height puts
+// the lowest point of the joint `clearance` above the floor;
 // origins keep min_separation [m] (horizontal) from earlier random-pose pipes at the same
 // index. Seeded by the file's seed only, so the ground truth does not depend on the simulator
 // seed.
