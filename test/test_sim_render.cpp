@@ -477,7 +477,7 @@ TEST(SimScenario, AllScenesLoadAndGroundTruthIsCanonical) {
   EXPECT_EQ(rig.cameras.size(), 6u);
   for (const char* name : {"thesis_vertical", "thesis_angled", "catwalk_horizontal", "stabbing",
                            "cluttered", "dark_steel", "moving", "random_poses", "sodium_rust",
-                           "sodium_rust_poses"}) {
+                           "sodium_rust_poses", "sodium_rust_floor"}) {
     const SceneConfig scene = loadSceneConfig(scenePath(name));
     SimulatorOptions opt;
     RigSimulator sim(rig, scene, opt);
