@@ -608,6 +608,16 @@ TEST(SimScenario, BadFilesNameFileKeyAndExpectation) {
   EXPECT_NE(message(head + pipe + "light: {direction: [0, 0, -1], tint: [1, 1]}\n")
                 .find("tint: expected a sequence of 3 numbers"),
             std::string::npos);
+  // random_poses' standing share and heights, named with their place.
+  const std::string poses = "pipes: [{name: p, type: tool_joint, end: box_end, pose: {translation: "
+                            "[0, 0, 0]}, motion: {random_poses: {centre: [0, 0], ";
+  EXPECT_NE(message(head + poses + "standing_fraction: 1.5}}}]\n")
+                .find("pipes[0].motion.random_poses: standing_fraction: expected 0..1"),
+            std::string::npos)
+      << message(head + poses + "standing_fraction: 1.5}}}]\n");
+  EXPECT_NE(message(head + poses + "standing_fraction: 0.5, standing_height: [0.7, 0.15]}}}]\n")
+                .find("standing_height: expected [min, max] with 0 < min <= max < 100 [m]"),
+            std::string::npos);
   EXPECT_THROW(sensorProfile("kinect_v3"), InputError);
 }
 
