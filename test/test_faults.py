@@ -528,9 +528,13 @@ class FaultInjection(unittest.TestCase):
         self.assertLessEqual(dt, DIAG_WITHIN, f"clock_back: logged {dt:.2f} s after the jump (seed {SEED})")
         resumed = [w - jump for w, m in case.ends if w >= jump and all(e.valid for e in m.ends)]
         self.assertTrue(resumed, f"clock_back: no cycle with both ends valid after the jump (seed {SEED})")
+        ddt, st = self.check_diag(case, "clock", lambda s, v: s.level == DiagnosticStatus.WARN
+                                  and "jumped back" in s.message, "the clock jumped back",
+                                  after=jump)
         line = self.standard(case, during=(jump, jump + 2.0), after=(jump + 2.0, case.replay_end))
-        self.report(f"clock back 2.5 s: logged 'time jumped back' after {dt:.2f} s (no /diagnostics "
-                    f"field for it); both ends valid again {resumed[0]:.2f} s after the jump; {line}")
+        self.report(f"clock back 2.5 s: logged 'time jumped back' after {dt:.2f} s, named in "
+                    f"/diagnostics after {ddt:.2f} s ('{st.message}'); both ends valid again "
+                    f"{resumed[0]:.2f} s after the jump; {line}")
 
     def test_08_estimator_respawn(self):
         killed = {}

@@ -136,11 +136,15 @@ class PoseEstimatorNode {
     const int64_t stamp = toNs(msg->header.stamp);
     const AddResult r = runner_.add(cam, stamp, wallNow(),
                                      [msg, this] { return fromMsg(msg, cfg_.limits); });
-    if (r.time_jumped_back)
+    if (r.time_jumped_back) {
       ROS_WARN(
           "pose_estimator: %s frame stamped %.3f s is %.1f s older than the last cycle: "
           "time jumped back (looped bag?); buffers and poses were reset",
           cam.c_str(), stamp * 1e-9, r.jump_s);
+      ++clock_.jumps_back;
+      clock_.last_jump_s = r.jump_s;
+      clock_.last_jump_wall = wallNow();
+    }
     if (!r.accepted)
       ROS_DEBUG("pose_estimator: %s frame %.3f s too late for its cycle", cam.c_str(),
                 stamp * 1e-9);
@@ -512,12 +516,38 @@ class PoseEstimatorNode {
       }
       arr.status.push_back(s);
     }
+    arr.status.push_back(clockStatus(now));
     last_diag_wall_ = now;
     diag_pub_.publish(arr);
     if (runner_.sync().liveCameras().empty() && throttle("no live camera", 10.0))
       ROS_WARN(
           "pose_estimator: no live camera (throttled, 10 s): is anything publishing "
           "<cam>/sensor_frame? (see /diagnostics)");
+  }
+
+  /// The node's clock as /diagnostics sees it: WARN for kJumpHold s after the clock jumped back
+  /// (a looped bag, a clock reset), when buffers, tracks and poses were reset; else OK.
+  diagnostic_msgs::DiagnosticStatus clockStatus(double now) const {
+    // [s] long enough for a 1 Hz reader to see it, short enough not to hide the next one.
+    constexpr double kJumpHold = 5.0;
+    diagnostic_msgs::DiagnosticStatus s;
+    s.name = "drill_pipe_pose: clock";
+    s.hardware_id = "clock";
+    if (clock_.jumps_back > 0 && now - clock_.last_jump_wall <= kJumpHold) {
+      s.level = diagnostic_msgs::DiagnosticStatus::WARN;
+      s.message = "time jumped back " + std::to_string(clock_.last_jump_s) +
+                  " s (a looped bag or a clock reset): buffers, tracks and poses were reset";
+    } else {
+      s.level = diagnostic_msgs::DiagnosticStatus::OK;
+      s.message = "ok";
+    }
+    diagnostic_msgs::KeyValue n, last;
+    n.key = "jumps back";
+    n.value = std::to_string(clock_.jumps_back);
+    last.key = "last jump back [s]";
+    last.value = std::to_string(clock_.last_jump_s);
+    s.values = {n, last};
+    return s;
   }
 
   /// A camera's problems of the last kProblemHold s, as a /diagnostics message ("" when none):
@@ -585,6 +615,11 @@ class PoseEstimatorNode {
   std::map<std::string, Counters> counters_;
   std::map<std::string, CameraDriftStatus> drift_;  ///< the drift watch's last status per camera
   double last_diag_wall_ = wallNow();
+  struct ClockJumps {
+    uint64_t jumps_back = 0;
+    double last_jump_s = 0;      ///< [s] how far the last jump went back
+    double last_jump_wall = 0;   ///< [s] wall clock when it was seen
+  } clock_;
 };
 
 }  // namespace
