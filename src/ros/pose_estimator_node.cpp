@@ -64,10 +64,12 @@ class PoseEstimatorNode {
     poll_timer_ = nh_.createWallTimer(ros::WallDuration(0.005), [this](const ros::WallTimerEvent&) {
       processReady();
       const double now = wallNow();
-      const bool none_live = runner_.sync().liveCameras().empty();
+      const auto& stats = runner_.sync().stats();  // no allocation on this 5 ms tick
+      bool none_live = true;
+      for (const auto& kv : stats) none_live = none_live && !kv.second.live;
       if (none_live) last_none_live_ = now;
       for (const auto& cam : cfg_.cameras)
-        resubscribeIfSilent(cam, runner_.sync().stats().at(cam), now, none_live, &counters_[cam]);
+        resubscribeIfSilent(cam, stats.at(cam), now, none_live, &counters_[cam]);
     });
     diag_timer_ = nh_.createWallTimer(ros::WallDuration(1.0),
                                       [this](const ros::WallTimerEvent&) { publishDiagnostics(); });
