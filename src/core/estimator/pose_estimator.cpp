@@ -245,14 +245,29 @@ void updateTracks(const std::array<Candidate, kNumEnds>& cand,
   }
 }
 
+/// Whether label `l`'s candidate fitted its own end's model, but failed (a registration that
+/// converged, then was gated: a joint of another size fitted with this type's model) more than
+/// `gate` from `origin`: the detector saw that end there, so a fit at `origin` is another end.
+bool ownFitFailedElsewhere(const Candidate& own, int l, const Eigen::Vector3d& origin,
+                           double gate) {
+  return !own.ok && own.fit.ok && static_cast<int>(own.fit.label) == l &&
+         (own.fit.origin - origin).norm() > gate;
+}
+
 /// Stage "assignment": the end each valid candidate stands for is the model that fits it; when
-/// both candidates fit one model, the detected label wins, then the lower cost. Per end, the
-/// index of its candidate's label, or -1.
-std::array<int, kNumEnds> assignEnds(const std::array<Candidate, kNumEnds>& cand) {
+/// both candidates fit one model, the detected label wins, then the lower cost. A candidate
+/// whose label is corrected does not take an end whose own detections were fitted elsewhere and
+/// failed (ownFitFailedElsewhere): on a 6-5/8" FH joint, while the 5" NC50 model is still
+/// configured, the pin end's pin reads as an NC50 box end and was published as the box end,
+/// 1.5 m from it, for the first 1.3 s (thesis_vertical, seed 93). Per end, the index of its
+/// candidate's label, or -1.
+std::array<int, kNumEnds> assignEnds(const std::array<Candidate, kNumEnds>& cand,
+                                     double gate) {
   std::array<int, kNumEnds> owner{{-1, -1}};
   for (int l = 0; l < kNumEnds; ++l) {
     if (!cand[l].ok) continue;
     const int slot = static_cast<int>(cand[l].fit.label);
+    if (slot != l && ownFitFailedElsewhere(cand[slot], slot, cand[l].fit.origin, gate)) continue;
     const int prev = owner[slot];
     if (prev < 0) {
       owner[slot] = l;
@@ -269,12 +284,23 @@ std::array<int, kNumEnds> assignEnds(const std::array<Candidate, kNumEnds>& cand
 }
 
 /// Why end `slot` has no pose: its own label's candidate failed, or fitted the other model.
-std::string noPoseReason(int slot, const std::array<Candidate, kNumEnds>& cand) {
+std::string noPoseReason(int slot, const std::array<Candidate, kNumEnds>& cand, double gate) {
   const Candidate& own = cand[slot];
+  const Candidate& other = cand[1 - slot];
   if (own.ok && static_cast<int>(own.fit.label) != slot)
     return std::string("the ") + labelName(static_cast<EndLabel>(slot)) + " detections fit the " +
            labelName(own.fit.label) + " model (label corrected)";
   if (own.ok) return "duplicate of another end";
+  if (other.ok && static_cast<int>(other.fit.label) == slot &&
+      ownFitFailedElsewhere(own, slot, other.fit.origin, gate)) {
+    std::ostringstream s;
+    s.precision(3);
+    s << own.reason << "; the " << labelName(static_cast<EndLabel>(1 - slot))
+      << " detections fit the " << labelName(static_cast<EndLabel>(slot)) << " model "
+      << (other.fit.origin - own.fit.origin).norm()
+      << " m away: another end (instances.track_gate = " << gate << " m), not taken";
+    return s.str();
+  }
   return own.reason;
 }
 
@@ -356,7 +382,7 @@ void outputEnd(int slot, const Candidate* cd, const std::array<Candidate, kNumEn
                const EstimatorConfig& config, CycleResult* result) {
   EndEstimate& e = result->ends[slot];
   if (!cd) {
-    e.reason = noPoseReason(slot, cand);
+    e.reason = noPoseReason(slot, cand, config.instances.track_gate);
     return;
   }
   const EndSupport sup = fillEnd(slot, *cd, cams, config, &e, &result->segmented[slot]);
@@ -828,7 +854,7 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
   choosePrimaryPair(&cand, &other_fits, state.types, config_);
   const std::array<bool, kNumEnds> held = holdLabelFlips(&cand, &state.labels, stamp_ns, config_);
   updateTracks(cand, held, &state.labels, stamp_ns, config_.tracking);
-  const std::array<int, kNumEnds> owner = assignEnds(cand);
+  const std::array<int, kNumEnds> owner = assignEnds(cand, config_.instances.track_gate);
   for (int slot = 0; slot < kNumEnds; ++slot) {
     const Candidate* cd = owner[slot] < 0 ? nullptr : &cand[owner[slot]];
     outputEnd(slot, cd, cand, cams, stamp_ns, &state.filters[slot], config_, &result);
