@@ -458,8 +458,10 @@ TEST(Carving, ACameraBlockedByAnObstacleDoesNotVetoWhatItCannotSee) {
     ASSERT_EQ(inputs[k].frame.boxes.size(), 2u) << cams[k].name;
   }
   EstimatorConfig cfg = testConfig();
-  // B is 1.6 m from A: with box_reach, cam1 and cam2 would not vote on A whatever they see.
+  // B is 1.6 m from A: with box_reach, cam1 and cam2 would not vote on A whatever they see; with
+  // count_boxes, the four cameras that boxed A as well would keep it (checked last).
   cfg.carving.box_reach = 0.0;
+  cfg.carving.count_boxes = false;
   std::vector<CycleCamera> cc;
   std::array<std::vector<CloudPoint>, kNumEnds> raw;
   cutOutAll(inputs, cfg, &cc, &raw);
@@ -468,6 +470,10 @@ TEST(Carving, ACameraBlockedByAnObstacleDoesNotVetoWhatItCannotSee) {
   cfg.carving.occlusion_margin = 0.0;
   EXPECT_LT(pointsOnJoint(carve(raw[0], EndLabel::kBoxEnd, cc, cfg.carving), a), before / 4);
   cfg.carving.occlusion_margin = EstimatorConfig().carving.occlusion_margin;
+  EXPECT_GT(pointsOnJoint(carve(raw[0], EndLabel::kBoxEnd, cc, cfg.carving), a),
+            before * 9 / 10);
+  cfg.carving.occlusion_margin = 0.0;
+  cfg.carving.count_boxes = true;
   EXPECT_GT(pointsOnJoint(carve(raw[0], EndLabel::kBoxEnd, cc, cfg.carving), a),
             before * 9 / 10);
 }
@@ -491,14 +497,46 @@ TEST(Carving, ACameraWhoseOnlyBoxIsOnAFarJointDoesNotVetoTheJointItMissed) {
   cutOutAll(inputs, cfg, &cc, &raw);
   const size_t before = pointsOnJoint(raw[0], a);
   ASSERT_GT(before, 200u);
-  // Every box votes: cam1 and cam2 veto A's points (4 of 6 < 0.75).
+  // Every box votes: cam1 and cam2 veto A's points (4 of 6 < 0.75) (count_boxes, which lets the
+  // four cameras that boxed A as well keep it, is tested in the next test).
   cfg.carving.box_reach = 0.0;
+  cfg.carving.count_boxes = false;
   EXPECT_LT(pointsOnJoint(carve(raw[0], EndLabel::kBoxEnd, cc, cfg.carving), a), before / 4);
   // Only boxes within 0.5 m vote: A is kept; B too (the cameras that see it agree).
   cfg.carving.box_reach = 0.5;
   const auto kept = carve(raw[0], EndLabel::kBoxEnd, cc, cfg.carving);
   EXPECT_GT(pointsOnJoint(kept, a), before * 9 / 10);
   EXPECT_GT(pointsOnJoint(kept, b), pointsOnJoint(raw[0], b) * 9 / 10);
+}
+
+TEST(Carving, CamerasThatMissedTheSecondOfTwoEndsSideBySideDoNotCarveItAway) {
+  // Two box ends A and B side by side, 0.4 m apart (two pipes on a catwalk); the detectors of
+  // cam1 and cam2 box A only. Within box_reach of A, they would veto B (4 of 6 < 0.75); with
+  // carving/count_boxes the four cameras that boxed both ends decide B.
+  Scene scene;
+  const Eigen::Vector3d a(5, 5, 1.2), b(5, 5.4, 1.2);
+  scene.joints.push_back(makeJoint(EndLabel::kBoxEnd, poseAt(a, {0, 0, 1})));
+  scene.joints.push_back(makeJoint(EndLabel::kBoxEnd, poseAt(b, {0, 0, 1})));
+  auto cams = ring({5, 5.2, 1.0}, 5.5, 4.5);
+  auto inputs = renderAll(scene, cams, {});
+  for (size_t k = 2; k < inputs.size(); ++k)
+    ASSERT_EQ(inputs[k].frame.boxes.size(), 2u) << cams[k].name << ": both ends boxed";
+  for (int k : {0, 1}) {
+    keepOnlyBoxEndBoxAround(&inputs, cams, k, a);
+    ASSERT_EQ(inputs[k].frame.boxes.size(), 1u) << cams[k].name;
+  }
+  EstimatorConfig cfg = testConfig();
+  std::vector<CycleCamera> cc;
+  std::array<std::vector<CloudPoint>, kNumEnds> raw;
+  cutOutAll(inputs, cfg, &cc, &raw);
+  const size_t before_a = pointsOnJoint(raw[0], a), before_b = pointsOnJoint(raw[0], b);
+  ASSERT_GT(before_b, 200u);
+  cfg.carving.count_boxes = false;
+  EXPECT_LT(pointsOnJoint(carve(raw[0], EndLabel::kBoxEnd, cc, cfg.carving), b), before_b / 4);
+  cfg.carving.count_boxes = true;
+  const auto kept = carve(raw[0], EndLabel::kBoxEnd, cc, cfg.carving);
+  EXPECT_GT(pointsOnJoint(kept, b), before_b * 9 / 10);
+  EXPECT_GT(pointsOnJoint(kept, a), before_a * 9 / 10);
 }
 
 TEST(Instances, ClustersAreConnectedGroupsLargestFirst) {

@@ -94,6 +94,8 @@ ParamTable<EstimatorConfig> makeEstimatorTable() {
         "a camera seeing something nearer than the point by more does not vote; 0: all vote"),
       P("carving/box_reach", carving.box_reach, "m", atLeast(0),
         "a camera votes against a point only with a box holding points this close; 0: always"),
+      P("carving/count_boxes", carving.count_boxes, "", anyValue(),
+        "also keep a point that the cameras with the most boxes of the label agree on"),
 
       P("instances/cluster_tolerance", instances.cluster_tolerance, "m", positive(),
         "grid cell edge of the clustering into candidate ends"),

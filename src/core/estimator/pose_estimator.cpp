@@ -605,12 +605,27 @@ void outputOthers(std::array<std::vector<OtherFit>, kNumEnds>* fits, EstimatorSt
       if ((e.T_world_end.translation() - o).norm() < gate) return true;
     return false;
   };
+  // One end fitted by both labels (a pin end that some cameras box as a box end): the label with
+  // more of its points is the end's; the other's fit is dropped. (Before, the box end's other fit
+  // was published there too, as its own end, when the pin end was an other end as well:
+  // catwalk_twin seed 93, 3 reports on the pin ends.)
+  const auto outnumbered = [&](int l, const Candidate& cd) {
+    for (const OtherFit& f : (*fits)[1 - l])
+      if (f.cd.ok && static_cast<int>(f.cd.fit.label) == 1 - l &&
+          (f.cd.fit.origin - cd.fit.origin).norm() < gate && f.cd.pts.size() > cd.pts.size())
+        return true;
+    return false;
+  };
   for (int l = 0; l < kNumEnds; ++l) {
     LabelState& ls = state->labels[l];
-    // Other ends that a fit of this cycle follows: the others may still be met by a new fit.
+    // Other ends that a valid fit of this cycle follows: the others may still be met by a new
+    // fit. (A failed fit follows nothing: a decision's fit of the same end then started a second
+    // track beside the first, and the two took turns, the end's id alternating in a tenth of
+    // the cycle pairs: catwalk_twin seed 190.)
     std::vector<bool> followed(ls.others.size(), false);
     for (const OtherFit& f : (*fits)[l])
-      if (f.other >= 0) followed[static_cast<size_t>(f.other)] = true;
+      if (f.other >= 0 && f.cd.ok && static_cast<int>(f.cd.fit.label) == l)
+        followed[static_cast<size_t>(f.other)] = true;
     for (OtherFit& f : (*fits)[l]) {
       const Candidate& cd = f.cd;
       // A fit that lies farther than instances.track_gate from the end's predicted origin is of
@@ -621,7 +636,8 @@ void outputOthers(std::array<std::vector<OtherFit>, kNumEnds>* fits, EstimatorSt
                          gate)
           f.other = -1;
       }
-      const bool ok = cd.ok && static_cast<int>(cd.fit.label) == l && !duplicate(cd.fit.origin);
+      const bool ok = cd.ok && static_cast<int>(cd.fit.label) == l &&
+                      !duplicate(cd.fit.origin) && !outnumbered(l, cd);
       if (!ok) continue;
       if (f.other < 0 && f.id == 0)
         continueKnownEnd(l, cd.fit.origin, stamp_ns, config, &followed, state, &f);

@@ -96,6 +96,16 @@ struct EstimatorConfig {
     /// missed (docs/results.md has the figures with and without). 0 = every camera with a box
     /// of the label votes.
     double box_reach = 0.5;
+    /// A camera that boxed fewer ends of the label than at least min_cameras cameras did (boxes
+    /// that hold each other's centre count once) may have missed the end a point lies on (a
+    /// second pipe's end beside the first): a point is also kept when the cameras that boxed
+    /// that many agree on it (min_cameras, vote_fraction), the others left out. Within
+    /// box_reach of the end they did box, such cameras carved the second of two identical
+    /// pipes' ends 0.4 m apart away whenever two of them missed it. Chosen on catwalk_twin seeds
+    /// 93, 190 and 191 and cluttered 130-131 (letting such cameras never vote against kept
+    /// clutter beside cluttered's pin end); docs/results.md has the figures with and without.
+    /// false = every camera votes as box_reach says.
+    bool count_boxes = true;
   } carving;
 
   /// Instances: the carved points of a label split into clusters (connected grid cells); each

@@ -25,7 +25,8 @@ bool findLevelSupport(const std::vector<Eigen::Vector3f>& points, const AxisLine
                       double radius, const EstimatorConfig::AxisFit& config, float* height);
 
 /// The points of a level support layer among all of `points` (the layer findLevelSupport looks
-/// for, without a joint's cylinder to leave out) and of its noisy fringe: the indices of those
+/// for, without a joint's cylinder to leave out; when the densest layer is not a support, the
+/// densest that is, among the four densest) and of its noisy fringe: the indices of those
 /// less than 2 plane_threshold above its height, ascending; empty when there is none (or fewer
 /// than 30 points).
 std::vector<size_t> levelSupportPoints(const std::vector<Eigen::Vector3f>& points,
