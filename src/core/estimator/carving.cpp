@@ -8,81 +8,104 @@
 
 namespace drill_pipe_pose {
 
+namespace {
+
+/// What one camera needs to judge a point of a label: its colour and depth projections, its boxes
+/// of the label and where their points lie.
+struct Judge {
+  Eigen::Matrix3f R;
+  Eigen::Vector3f t;
+  float fx, fy, cx, cy, w, h;
+  std::vector<const DetectionBox*> boxes;
+  // Where each box's own cut-out points lie in the world (their bounding box): the camera
+  // votes against a point only within carving.box_reach of one of them.
+  std::vector<Eigen::AlignedBox3f> reach;
+  // The depth image, to tell whether the camera sees the point at all.
+  Eigen::Matrix3f R_d;
+  Eigen::Vector3f t_d;
+  float dfx, dfy, dcx, dcy;  // full-sensor principal point
+  int off_x, off_y;          // the delivered image's offset in the sensor (roi)
+  const DepthImage* depth;
+  std::array<int, 4> crop;  // depth pixels the occlusion test may read (CycleCamera::crop)
+};
+
+/// Camera `cam`'s judge of points of `label`.
+Judge makeJudge(const CycleCamera& cam, EndLabel label) {
+  Judge j;
+  j.R = cam.T_color_world.linear().cast<float>();
+  j.t = cam.T_color_world.translation().cast<float>();
+  j.fx = cam.color.fx();
+  j.fy = cam.color.fy();
+  j.cx = cam.color.cx() - cam.color.offsetX();
+  j.cy = cam.color.cy() - cam.color.offsetY();
+  j.w = cam.color.imageWidth();
+  j.h = cam.color.imageHeight();
+  const Eigen::Isometry3d T_depth_world = cam.T_world_depth.inverse();
+  j.R_d = T_depth_world.linear().cast<float>();
+  j.t_d = T_depth_world.translation().cast<float>();
+  j.dfx = cam.depth.fx();
+  j.dfy = cam.depth.fy();
+  j.dcx = cam.depth.cx();
+  j.dcy = cam.depth.cy();
+  j.off_x = static_cast<int>(cam.depth.offsetX());
+  j.off_y = static_cast<int>(cam.depth.offsetY());
+  j.depth = &cam.image;
+  j.crop = cam.crop;
+  for (const auto& b : cam.boxes)
+    if (b.label == label) j.boxes.push_back(&b);
+  j.reach.assign(j.boxes.size(), Eigen::AlignedBox3f());
+  return j;
+}
+
+/// The number of ends among `boxes`: a box whose centre lies in a box already counted, or that
+/// holds its centre, is the same detection twice (thesis_vertical's simulated detector repeats
+/// boxes).
+size_t distinctBoxes(const std::vector<const DetectionBox*>& boxes) {
+  const auto holds = [](const DetectionBox& a, const DetectionBox& b) {
+    const float u = 0.5f * (b.x_min + b.x_max), v = 0.5f * (b.y_min + b.y_max);
+    return u >= a.x_min && u <= a.x_max && v >= a.y_min && v <= a.y_max;
+  };
+  std::vector<const DetectionBox*> counted;
+  for (const DetectionBox* b : boxes) {
+    bool repeat = false;
+    for (const DetectionBox* c : counted) repeat = repeat || holds(*c, *b) || holds(*b, *c);
+    if (!repeat) counted.push_back(b);
+  }
+  return counted.size();
+}
+
+/// The number of ends of the label that at least `need` of the cameras boxed (`distinct`: each
+/// judging camera's count; others 0); 0 when fewer cameras have a box of it.
+size_t endsBoxedByEnough(const std::vector<size_t>& distinct, const std::vector<bool>& can_judge,
+                         size_t need) {
+  std::vector<size_t> counts;
+  for (size_t c = 0; c < distinct.size(); ++c)
+    if (can_judge[c]) counts.push_back(distinct[c]);
+  std::sort(counts.begin(), counts.end(), std::greater<size_t>());
+  return counts.size() >= need && need > 0 ? counts[need - 1] : 0;
+}
+
+}  // namespace
+
 std::vector<CloudPoint> carve(const std::vector<CloudPoint>& points, EndLabel label,
                               const std::vector<CycleCamera>& cameras,
                               const EstimatorConfig::Carving& config) {
   const int l = static_cast<int>(label);
-  struct Judge {
-    Eigen::Matrix3f R;
-    Eigen::Vector3f t;
-    float fx, fy, cx, cy, w, h;
-    std::vector<const DetectionBox*> boxes;
-    // Where each box's own cut-out points lie in the world (their bounding box): the camera
-    // votes against a point only within carving.box_reach of one of them.
-    std::vector<Eigen::AlignedBox3f> reach;
-    // The depth image, to tell whether the camera sees the point at all.
-    Eigen::Matrix3f R_d;
-    Eigen::Vector3f t_d;
-    float dfx, dfy, dcx, dcy;  // full-sensor principal point
-    int off_x, off_y;          // the delivered image's offset in the sensor (roi)
-    const DepthImage* depth;
-    std::array<int, 4> crop;  // depth pixels the occlusion test may read (CycleCamera::crop)
-  };
   std::vector<Judge> judges(cameras.size());
   std::vector<bool> can_judge(cameras.size(), false);
+  std::vector<size_t> distinct(cameras.size(), 0);
   for (size_t c = 0; c < cameras.size(); ++c) {
-    const CycleCamera& cam = cameras[c];
-    if (!cam.has_label[l]) continue;
+    if (!cameras[c].has_label[l]) continue;
     can_judge[c] = true;
-    Judge& j = judges[c];
-    j.R = cam.T_color_world.linear().cast<float>();
-    j.t = cam.T_color_world.translation().cast<float>();
-    j.fx = cam.color.fx();
-    j.fy = cam.color.fy();
-    j.cx = cam.color.cx() - cam.color.offsetX();
-    j.cy = cam.color.cy() - cam.color.offsetY();
-    j.w = cam.color.imageWidth();
-    j.h = cam.color.imageHeight();
-    const Eigen::Isometry3d T_depth_world = cam.T_world_depth.inverse();
-    j.R_d = T_depth_world.linear().cast<float>();
-    j.t_d = T_depth_world.translation().cast<float>();
-    j.dfx = cam.depth.fx();
-    j.dfy = cam.depth.fy();
-    j.dcx = cam.depth.cx();
-    j.dcy = cam.depth.cy();
-    j.off_x = static_cast<int>(cam.depth.offsetX());
-    j.off_y = static_cast<int>(cam.depth.offsetY());
-    j.depth = &cam.image;
-    j.crop = cam.crop;
-    for (const auto& b : cam.boxes)
-      if (b.label == label) j.boxes.push_back(&b);
-    j.reach.assign(j.boxes.size(), Eigen::AlignedBox3f());
+    judges[c] = makeJudge(cameras[c], label);
+    distinct[c] = distinctBoxes(judges[c].boxes);
   }
   // The number of ends of the label that at least min_cameras cameras boxed: a camera with fewer
-  // may have missed an end (carving.count_boxes). (At least half the cameras instead: the second
-  // pipe of catwalk_twin seed 193 was boxed by fewer, and 86 % of its ends were reported, not
-  // 99 %.)
-  // Boxes count once per end: one whose centre lies in a box already counted, or that holds its
-  // centre, is the same detection twice (thesis_vertical's simulated detector repeats boxes).
-  const auto distinctBoxes = [](const std::vector<const DetectionBox*>& boxes) {
-    const auto holds = [](const DetectionBox& a, const DetectionBox& b) {
-      const float u = 0.5f * (b.x_min + b.x_max), v = 0.5f * (b.y_min + b.y_max);
-      return u >= a.x_min && u <= a.x_max && v >= a.y_min && v <= a.y_max;
-    };
-    std::vector<const DetectionBox*> counted;
-    for (const DetectionBox* b : boxes) {
-      bool repeat = false;
-      for (const DetectionBox* c : counted) repeat = repeat || holds(*c, *b) || holds(*b, *c);
-      if (!repeat) counted.push_back(b);
-    }
-    return counted.size();
-  };
-  std::vector<size_t> counts, distinct(cameras.size(), 0);
-  for (size_t c = 0; c < cameras.size(); ++c)
-    if (can_judge[c]) counts.push_back(distinct[c] = distinctBoxes(judges[c].boxes));
-  std::sort(counts.begin(), counts.end(), std::greater<size_t>());
-  const size_t need = static_cast<size_t>(std::max(1, config.min_cameras));
-  const size_t common = config.count_boxes && counts.size() >= need ? counts[need - 1] : 0;
+  // may have missed an end (carving.count_boxes).
+  const size_t common =
+      config.count_boxes
+          ? endsBoxedByEnough(distinct, can_judge, static_cast<size_t>(config.min_cameras))
+          : 0;
   const float margin = config.margin_px;
   auto inBox = [margin](const DetectionBox& b, float u, float v) {
     return u >= b.x_min - margin && u <= b.x_max + margin && v >= b.y_min - margin &&

@@ -102,9 +102,8 @@ struct EstimatorConfig {
     /// that many agree on it (min_cameras, vote_fraction), the others left out. Within
     /// box_reach of the end they did box, such cameras carved the second of two identical
     /// pipes' ends 0.4 m apart away whenever two of them missed it. Chosen on catwalk_twin seeds
-    /// 93, 190 and 191 and cluttered 130-131 (letting such cameras never vote against kept
-    /// clutter beside cluttered's pin end); docs/results.md has the figures with and without.
-    /// false = every camera votes as box_reach says.
+    /// 93, 190 and 191 and cluttered 130-131; held out on catwalk_twin 192-196 (docs/results.md,
+    /// "Pipe types", several pipes at once). false = every camera votes as box_reach says.
     bool count_boxes = true;
   } carving;
 
