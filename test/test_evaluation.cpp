@@ -127,3 +127,29 @@ TEST(Evaluation, LagIsTheSignedErrorAlongTheMotion) {
   EXPECT_EQ(ev0[0].moving_estimates, 0u);
   EXPECT_TRUE(std::isnan(ev0[0].mean_lag));
 }
+
+TEST(Evaluation, EveryEndCountsReportsOnAnotherEndAndKeepsExamples) {
+  // Two box ends and a pin end; in each of two cycles the box ends are reported on their own, and
+  // a box-end report sits 0.12 m from the pin end (a box fit on it): stray, near another end, and
+  // kept as an example for the diagnosis.
+  TrueEnds truth;
+  const Eigen::Vector3d a(7.2, 5.85, 1.08), b(7.2, 6.25, 1.08), pin(2.2, 5.85, 1.08);
+  std::vector<ReportedEnd> reports;
+  for (int64_t stamp : {1000000000LL, 1033000000LL}) {
+    truth[0][stamp] = {a, b};
+    truth[1][stamp] = {pin};
+    reports.push_back({stamp, EndLabel::kBoxEnd, 1, a});
+    reports.push_back({stamp, EndLabel::kBoxEnd, 2, b});
+    reports.push_back({stamp, EndLabel::kPinEnd, 3, pin});
+    reports.push_back({stamp, EndLabel::kBoxEnd, 4, pin + Eigen::Vector3d(-0.12, 0, 0)});
+  }
+  const InstanceEvaluation ev = evaluateInstances(truth, reports);
+  EXPECT_EQ(ev.true_ends, 3u);
+  EXPECT_EQ(ev.reported, ev.end_cycles);
+  EXPECT_EQ(ev.id_kept, ev.id_pairs);
+  EXPECT_EQ(ev.stray, 2u);
+  EXPECT_EQ(ev.near_other, 2u);
+  ASSERT_EQ(ev.near_examples.size(), 2u);
+  EXPECT_EQ(ev.near_examples[0].id, 4u);
+  EXPECT_EQ(ev.near_examples[0].label, EndLabel::kBoxEnd);
+}

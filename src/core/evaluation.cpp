@@ -237,6 +237,8 @@ InstanceEvaluation evaluateInstances(const TrueEnds& truth, const std::vector<Re
           const bool its_own = l == static_cast<int>(r->label) && d == own;
           if (!its_own && d < near_distance) {
             ++ev.near_other;
+            constexpr size_t kExamples = 5;
+            if (ev.near_examples.size() < kExamples) ev.near_examples.push_back(*r);
             l = kNumEnds;
             break;
           }

@@ -329,6 +329,10 @@ void reportInstances(const BenchOptions& o, const InstanceEvaluation& ev) {
     std::cout << " " << labelName(static_cast<EndLabel>(end.first)) << " #" << end.second << " "
               << 100 * share(n.second, n.first) << " %";
   std::cout << "\n";
+  for (const ReportedEnd& r : ev.near_examples)
+    std::cout << "every end, near another end: " << labelName(r.label) << " #" << r.id << " at ("
+              << r.origin.x() << ", " << r.origin.y() << ", " << r.origin.z() << ") stamp "
+              << r.stamp_ns * 1e-9 << " s\n";
   if (ev.mixed_ids > 0) {
     std::cout << "every end, ids on more than one end:";
     for (const auto& [id, ends] : ev.id_truth)

@@ -111,6 +111,7 @@ struct InstanceEvaluation {
   size_t mixed_ids = 0;     ///< ids reported on more than one true end
   size_t stray = 0;         ///< reports with no true end of their label within match_distance
   size_t near_other = 0;    ///< reports within near_distance of another end's true position
+  std::vector<ReportedEnd> near_examples;  ///< the first few of those (for a diagnosis)
   std::map<uint32_t, std::set<std::pair<int, size_t>>> id_truth;  ///< id -> (label, true end)
 };
 

@@ -606,14 +606,23 @@ void outputOthers(std::array<std::vector<OtherFit>, kNumEnds>* fits, EstimatorSt
     return false;
   };
   // One end fitted by both labels (a pin end that some cameras box as a box end): the label with
-  // more of its points is the end's; the other's fit is dropped. (Before, the box end's other fit
-  // was published there too, as its own end, when the pin end was an other end as well:
-  // catwalk_twin seed 93, 3 reports on the pin ends.)
-  const auto outnumbered = [&](int l, const Candidate& cd) {
-    for (const OtherFit& f : (*fits)[1 - l])
-      if (f.cd.ok && static_cast<int>(f.cd.fit.label) == 1 - l &&
+  // more of its points is the end's, and an end the other label tracks stays its own while its
+  // track goes on; the other fit is dropped. (Before, the box end's other fit was published there
+  // too, as its own end: catwalk_twin seed 93, 3 reports on the pin ends; held-out seeds 192 and
+  // 196, 1 and 2 within 0.2 m of a pin end whose own pose was held that cycle.)
+  const auto otherLabelsEnd = [&](int l, const Candidate& cd) {
+    const int o = 1 - l;
+    for (const OtherFit& f : (*fits)[o])
+      if (f.cd.ok && static_cast<int>(f.cd.fit.label) == o &&
           (f.cd.fit.origin - cd.fit.origin).norm() < gate && f.cd.pts.size() > cd.pts.size())
         return true;
+    const auto tracked_here = [&](const Track& tr) {
+      return static_cast<int>(tr.model) == o && tr.continues(stamp_ns, config.tracking.max_gap) &&
+             (tr.predict(stamp_ns, config.tracking.max_prediction) - cd.fit.origin).norm() < gate;
+    };
+    if (tracked_here(state->labels[o].track)) return true;
+    for (const OtherEnd& e : state->labels[o].others)
+      if (tracked_here(e.track)) return true;
     return false;
   };
   for (int l = 0; l < kNumEnds; ++l) {
@@ -637,7 +646,7 @@ void outputOthers(std::array<std::vector<OtherFit>, kNumEnds>* fits, EstimatorSt
           f.other = -1;
       }
       const bool ok = cd.ok && static_cast<int>(cd.fit.label) == l &&
-                      !duplicate(cd.fit.origin) && !outnumbered(l, cd);
+                      !duplicate(cd.fit.origin) && !otherLabelsEnd(l, cd);
       if (!ok) continue;
       if (f.other < 0 && f.id == 0)
         continueKnownEnd(l, cd.fit.origin, stamp_ns, config, &followed, state, &f);
