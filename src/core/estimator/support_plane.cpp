@@ -101,9 +101,10 @@ bool isSupportLayer(const std::vector<Eigen::Vector3f>& points, const std::vecto
 /// Among the points marked in `use`, the horizontal layer 2 plane_threshold thick with the most
 /// of them, when it holds at least plane_min_fraction of all the points and is a support
 /// (isSupportLayer); `height` receives its mean height. With `densest_support`, the densest of
-/// the layers that are supports: two pipes lying side by side show more of their top bands than
-/// of the catwalk between them, and those bands, 0.4 m apart, spread both ways (catwalk_twin,
-/// seed 191: the two box ends stayed one cluster in a sixth of the cycles).
+/// the layers that are supports, among the four densest that do not overlap: two pipes lying
+/// side by side show more of their top bands than of the catwalk between them, and those bands,
+/// 0.4 m apart, spread both ways (catwalk_twin, seed 191: the two box ends stayed one cluster in
+/// a sixth of the cycles).
 bool levelLayer(const std::vector<Eigen::Vector3f>& points, const std::vector<uint8_t>& use,
                 const EstimatorConfig::AxisFit& config, float* height,
                 bool densest_support = false) {
