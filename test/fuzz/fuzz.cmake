@@ -5,10 +5,11 @@
 #    builds them, ctest replays each one's regressions and seed corpus (fuzz-replay_<name>), and
 #    scripts/test --sanitize runs them for 10^4 mutated inputs each under ASan + UBSan; or
 #  - with libFuzzer (-DDRILL_PIPE_POSE_LIBFUZZER=ON, clang: scripts/fuzz --libfuzzer), no ctest.
-set(DPP_FUZZ_HARNESSES sensor_frame rig_yaml scene_yaml estimator_yaml pipe_catalog_yaml
-  yolo_decoding)
+set(DPP_FUZZ_HARNESSES sensor_frame sensor_frame_cutout rig_yaml scene_yaml estimator_yaml
+  pipe_catalog_yaml yolo_decoding)
 # What each harness tests, i.e. links.
 set(DPP_FUZZ_LIBS_sensor_frame ${PROJECT_NAME}_ros)
+set(DPP_FUZZ_LIBS_sensor_frame_cutout ${PROJECT_NAME}_ros)
 set(DPP_FUZZ_LIBS_rig_yaml ${PROJECT_NAME}_core)
 set(DPP_FUZZ_LIBS_scene_yaml ${PROJECT_NAME}_sim)
 set(DPP_FUZZ_LIBS_estimator_yaml ${PROJECT_NAME}_core)
