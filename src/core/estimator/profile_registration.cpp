@@ -202,10 +202,120 @@ double correctWeakReturn(const Eigen::Vector3d& p, const Eigen::Vector3d& eye,
   *e -= kinect_v2::weakReturnBias(kAmplitude, a, config.bias_reference) * n_dot_ray;
   return kinect_v2::amplitudeSigma(kAmplitude, a);
 }
+
+/// One IRLS pass's sums over the points at pose (o, z): the normal equations (H, g), their part
+/// that counts for the covariance (H_cov, chi2, n_used: silhouette points steer but do not
+/// count) and the statistics over every point (cost, ss and inl over the inliers).
+struct IrlsPass {
+  Eigen::Matrix<double, 5, 5> H = Eigen::Matrix<double, 5, 5>::Zero();
+  Eigen::Matrix<double, 5, 5> H_cov = Eigen::Matrix<double, 5, 5>::Zero();
+  Eigen::Matrix<double, 5, 1> g = Eigen::Matrix<double, 5, 1>::Zero();
+  double chi2 = 0, cost = 0, ss = 0;
+  size_t n_used = 0, inl = 0;
+};
+
+/// The pass at (o, z) over pts; writes each point's inlier flag into *inlier_mask. `silhouettes`:
+/// whether silhouette points (rays that miss the model) steer this pass.
+IrlsPass irlsPass(const std::vector<Eigen::Vector3d>& pts, const std::vector<float>& sigmas,
+                  const Eigen::Vector3d& o, const Eigen::Vector3d& z, const ProfileModel& model,
+                  const EstimatorConfig::ProfileFit& config, double z_trust, bool silhouettes,
+                  const std::vector<Eigen::Vector3f>* eyes, std::vector<uint8_t>* inlier_mask) {
+  const double T = config.truncation, T2 = T * T;
+  Eigen::Vector3d e1, e2;
+  orthoBasis(z, &e1, &e2);
+  IrlsPass ps;
+  for (size_t i = 0; i < pts.size(); ++i) {
+    Eigen::Vector2d gr;
+    bool hit = false;
+    double e =
+        profileResidual(model, pts[i], o, z, e1, e2, eyes ? &(*eyes)[i] : nullptr, &gr, &hit);
+    const double amp_sigma =
+        hit && config.reflectivity > 0
+            ? correctWeakReturn(pts[i], (*eyes)[i].cast<double>(), o, z, gr, config, &e)
+            : 0.0;
+    const double d = std::abs(e);
+    ps.cost += std::min(d * d, T2);
+    const double gate = std::min(T, std::max(0.01, 3.0 * sigmas[i]));
+    (*inlier_mask)[i] = d < gate;
+    if (d < gate) {
+      ps.ss += d * d;
+      ++ps.inl;
+    }
+    const Eigen::Vector3d q = pts[i] - o;
+    const double zc = q.dot(z);
+    // Beyond the trusted tong (worn joints are shorter): the radius still fixes the axis
+    // (lateral and tilt), but not the position along it.
+    const bool axial_info = zc >= z_trust;
+    const Eigen::Vector3d qp = q - zc * z;
+    const double rc = qp.norm();
+    if (rc < 1e-9) continue;
+    if (d > T) continue;
+    // A ray that misses the model: a pixel beyond the joint's silhouette as the model sees it.
+    // Where its closest model surface faces away from the axis (the joint's sides,
+    // kSilhouetteNormal), it is a side pixel that lateral noise (the depth of a neighbouring
+    // pixel) moved outward: it counts at that distance, as its twin moved inward (whose ray
+    // meets the model) does. Leaving these out biased the simulator's thesis_angled fits
+    // (0.75 deg and 5.3 mm without them, 0.64 deg and 4.9 mm with them; a synthetic model of
+    // lateral noise alone shows a smaller bias, so that mechanism is not the whole story).
+    // Others (beyond the end face or a shoulder, into the bore) do not steer the fit, nor do
+    // any while the fit explains few of its points (dark steel: its silhouette's mixed
+    // pixels would pull it).
+    const bool silhouette = eyes && !hit;
+    if (silhouette && !(silhouettes && gr.y() >= kSilhouetteNormal)) continue;
+    double sigma = std::max<double>(sigmas[i], amp_sigma);
+    if (config.incidence_noise > 0 && eyes) {
+      // The depth noise's growth toward grazing incidence, at the model's normal there.
+      const Eigen::Vector3d ray = pts[i] - (*eyes)[i].cast<double>();
+      const double range = ray.norm();
+      const Eigen::Vector3d n3 = gr.x() * z + gr.y() * (qp / rc);
+      sigma += incidenceSigma(config.incidence_noise, range,
+                              std::abs(n3.dot(ray)) / (range * n3.norm()));
+    }
+    const double k = config.huber * sigma;
+    const double w = (d <= k ? 1.0 : k / d) / (sigma * sigma);
+    Eigen::Matrix<double, 5, 1> J = profileJacobian(q, zc, qp / rc, e1, e2, gr);
+    // No pull along the axis from the untrusted part.
+    if (!axial_info) J(2) = 0.0;
+    ps.H += w * J * J.transpose();
+    ps.g += w * J * e;
+    // A silhouette point's closest-point distance is an approximation: it steers the fit but
+    // adds nothing to the reported certainty.
+    if (silhouette) continue;
+    ps.H_cov += w * J * J.transpose();
+    ps.chi2 += e * e / (sigma * sigma);
+    ++ps.n_used;
+  }
+  return ps;
+}
+
+/// The damped Gauss-Newton step of a pass (axial part zero when lock_axial), applied to (o, z)
+/// with its length limited (robustness far from the optimum). False when the step is not
+/// finite; *step_t and *step_r: its translation [m] and rotation [rad] before the limit.
+bool applyIrlsStep(const IrlsPass& ps, bool lock_axial, Eigen::Vector3d* o, Eigen::Vector3d* z,
+                   double* step_t, double* step_r) {
+  Eigen::Vector3d e1, e2;
+  orthoBasis(*z, &e1, &e2);
+  Eigen::Matrix<double, 5, 5> Hd = ps.H;
+  Hd.diagonal().array() += 1e-6 * Hd.diagonal().array() + 1e-3;
+  Eigen::Matrix<double, 5, 1> gd = ps.g;
+  if (lock_axial) {  // solve for the other four
+    Hd.row(2).setZero();
+    Hd.col(2).setZero();
+    Hd(2, 2) = 1.0;
+    gd(2) = 0.0;
+  }
+  const Eigen::Matrix<double, 5, 1> delta = -Hd.ldlt().solve(gd);
+  if (!delta.allFinite()) return false;
+  *step_t = delta.head<3>().norm();
+  *step_r = delta.tail<2>().norm();
+  const double scale =
+      std::min({1.0, 0.05 / std::max(*step_t, 1e-12), 0.1 / std::max(*step_r, 1e-12)});
+  *o += scale * (delta[0] * e1 + delta[1] * e2 + delta[2] * *z);
+  *z = (*z + scale * (delta[3] * e1 + delta[4] * e2)).normalized();
+  return true;
+}
 }  // namespace
 
-// Over 120 lines because it is one IRLS loop whose per-iteration state (correspondences,
-// weights, normal equations, the locked axial step) every step shares.
 ProfileFitResult refineProfile(const std::vector<Eigen::Vector3f>& points,
                                const std::vector<float>& sigmas, const Eigen::Vector3d& origin,
                                const Eigen::Vector3d& z_axis, const ProfileModel& model,
@@ -214,138 +324,49 @@ ProfileFitResult refineProfile(const std::vector<Eigen::Vector3f>& points,
   ProfileFitResult res;
   res.label = model.label();
   if (points.size() < 10 || sigmas.size() != points.size()) return res;
-  const double T = config.truncation, T2 = T * T;
   Eigen::Vector3d o = origin, z = z_axis.normalized();
-  // 2. IRLS Gauss-Newton on the 5 DoF: o += a1 e1 + a2 e2 + a3 z, z += b1 e1 + b2 e2.
+  // IRLS Gauss-Newton on the 5 DoF: o += a1 e1 + a2 e2 + a3 z, z += b1 e1 + b2 e2.
   const double z_trust = model.trustedMinZ(config.wear_margin);
   std::vector<Eigen::Vector3d> pts(points.size());
   for (size_t i = 0; i < points.size(); ++i) pts[i] = points[i].cast<double>();
-  Eigen::Matrix<double, 5, 5> H_last = Eigen::Matrix<double, 5, 5>::Zero();
-  double chi2 = 0;
-  size_t n_used = 0;
   // Statistics over all points at the pass's pose (the last pass's are the result's).
   res.inlier_mask.assign(points.size(), 0);
-  double cost = 0, ss = 0;
-  size_t inl = 0;
-  // Silhouette points (below) steer an iteration only when the previous one explained at least
+  IrlsPass ps;
+  // Silhouette points steer a pass only when the previous one explained at least
   // config.silhouette_min_inlier_fraction of the points.
   bool silhouettes = false, next_silhouettes = false;
   for (int it = 0; it < iterations + 1; ++it) {
     silhouettes = next_silhouettes;
-    const bool last = it == iterations;
-    Eigen::Vector3d e1, e2;
-    orthoBasis(z, &e1, &e2);
-    Eigen::Matrix<double, 5, 5> H = Eigen::Matrix<double, 5, 5>::Zero(), H_cov = H;
-    Eigen::Matrix<double, 5, 1> g = Eigen::Matrix<double, 5, 1>::Zero();
-    chi2 = 0;
-    n_used = 0;
-    cost = ss = 0;
-    inl = 0;
-    for (size_t i = 0; i < pts.size(); ++i) {
-      Eigen::Vector2d gr;
-      bool hit = false;
-      double e = profileResidual(model, pts[i], o, z, e1, e2, eyes ? &(*eyes)[i] : nullptr, &gr,
-                                 &hit);
-      const double amp_sigma =
-          hit && config.reflectivity > 0
-              ? correctWeakReturn(pts[i], (*eyes)[i].cast<double>(), o, z, gr, config, &e)
-              : 0.0;
-      const double d = std::abs(e);
-      cost += std::min(d * d, T2);
-      const double gate = std::min(T, std::max(0.01, 3.0 * sigmas[i]));
-      res.inlier_mask[i] = d < gate;
-      if (d < gate) {
-        ss += d * d;
-        ++inl;
-      }
-      const Eigen::Vector3d q = pts[i] - o;
-      const double zc = q.dot(z);
-      // Beyond the trusted tong (worn joints are shorter): the radius still fixes the axis
-      // (lateral and tilt), but not the position along it.
-      const bool axial_info = zc >= z_trust;
-      const Eigen::Vector3d qp = q - zc * z;
-      const double rc = qp.norm();
-      if (rc < 1e-9) continue;
-      if (d > T) continue;
-      // A ray that misses the model: a pixel beyond the joint's silhouette as the model sees it.
-      // Where its closest model surface faces away from the axis (the joint's sides,
-      // kSilhouetteNormal), it is a side pixel that lateral noise (the depth of a neighbouring
-      // pixel) moved outward: it counts at that distance, as its twin moved inward (whose ray
-      // meets the model) does. Leaving these out biased the simulator's thesis_angled fits
-      // (0.75 deg and 5.3 mm without them, 0.64 deg and 4.9 mm with them; a synthetic model of
-      // lateral noise alone shows a smaller bias, so that mechanism is not the whole story).
-      // Others (beyond the end face or a shoulder, into the bore) do not steer the fit, nor do
-      // any while the fit explains few of its points (dark steel: its silhouette's mixed
-      // pixels would pull it).
-      const bool silhouette = eyes && !hit;
-      if (silhouette && !(silhouettes && gr.y() >= kSilhouetteNormal)) continue;
-      double sigma = std::max<double>(sigmas[i], amp_sigma);
-      if (config.incidence_noise > 0 && eyes) {
-        // The depth noise's growth toward grazing incidence, at the model's normal there.
-        const Eigen::Vector3d ray = pts[i] - (*eyes)[i].cast<double>();
-        const double range = ray.norm();
-        const Eigen::Vector3d n3 = gr.x() * z + gr.y() * (qp / rc);
-        sigma += incidenceSigma(config.incidence_noise, range,
-                                std::abs(n3.dot(ray)) / (range * n3.norm()));
-      }
-      const double k = config.huber * sigma;
-      const double w = (d <= k ? 1.0 : k / d) / (sigma * sigma);
-      Eigen::Matrix<double, 5, 1> J = profileJacobian(q, zc, qp / rc, e1, e2, gr);
-      // No pull along the axis from the untrusted part.
-      if (!axial_info) J(2) = 0.0;
-      H += w * J * J.transpose();
-      g += w * J * e;
-      // A silhouette point's closest-point distance is an approximation: it steers the fit but
-      // adds nothing to the reported certainty.
-      if (silhouette) continue;
-      H_cov += w * J * J.transpose();
-      chi2 += e * e / (sigma * sigma);
-      ++n_used;
-    }
+    ps = irlsPass(pts, sigmas, o, z, model, config, z_trust, silhouettes, eyes,
+                  &res.inlier_mask);
     next_silhouettes = config.silhouette_points &&
-                       static_cast<double>(inl) >=
+                       static_cast<double>(ps.inl) >=
                            config.silhouette_min_inlier_fraction * static_cast<double>(pts.size());
-    H_last = H_cov;
     res.origin = o;
     res.z = z;
-    if (last || n_used < 10) break;
-    Eigen::Matrix<double, 5, 5> Hd = H;
-    Hd.diagonal().array() += 1e-6 * Hd.diagonal().array() + 1e-3;
-    Eigen::Matrix<double, 5, 1> gd = g;
-    if (lock_axial) {  // solve for the other four
-      Hd.row(2).setZero();
-      Hd.col(2).setZero();
-      Hd(2, 2) = 1.0;
-      gd(2) = 0.0;
-    }
-    const Eigen::Matrix<double, 5, 1> delta = -Hd.ldlt().solve(gd);
-    if (!delta.allFinite()) break;
-    // Limit the step (robustness far from the optimum).
-    const double step_t = delta.head<3>().norm(), step_r = delta.tail<2>().norm();
-    const double scale =
-        std::min({1.0, 0.05 / std::max(step_t, 1e-12), 0.1 / std::max(step_r, 1e-12)});
-    o += scale * (delta[0] * e1 + delta[1] * e2 + delta[2] * z);
-    z = (z + scale * (delta[3] * e1 + delta[4] * e2)).normalized();
+    if (it == iterations || ps.n_used < 10) break;
+    double step_t = 0, step_r = 0;
+    if (!applyIrlsStep(ps, lock_axial, &o, &z, &step_t, &step_r)) break;
     // Converged: steps far below the noise (0.1 mm, 0.1 mrad).
     if (step_t < 1e-4 && step_r < 1e-4 && next_silhouettes == silhouettes) {
       it = iterations - 1;  // one more pass to evaluate H at the optimum
     }
   }
-  if (n_used < 10) return res;
-  // 3. The result: the pose of the last pass (H and the statistics were evaluated there).
+  if (ps.n_used < 10) return res;
+  // The result: the pose of the last pass (H and the statistics were evaluated there).
   o = res.origin;
   z = res.z;
-  res.cost = cost / pts.size();
-  res.inliers = inl;
-  res.rms = inl ? std::sqrt(ss / inl) : 0.0;
+  res.cost = ps.cost / pts.size();
+  res.inliers = ps.inl;
+  res.rms = ps.inl ? std::sqrt(ps.ss / ps.inl) : 0.0;
   Eigen::Vector3d e1, e2;
   orthoBasis(z, &e1, &e2);
   res.basis.col(0) = e1;
   res.basis.col(1) = e2;
   res.basis.col(2) = z;
-  const double dof = std::max<double>(1.0, static_cast<double>(n_used) - 5.0);
-  const double s2 = std::max(1.0, chi2 / dof);
-  Eigen::Matrix<double, 5, 5> Hr = H_last;
+  const double dof = std::max<double>(1.0, static_cast<double>(ps.n_used) - 5.0);
+  const double s2 = std::max(1.0, ps.chi2 / dof);
+  Eigen::Matrix<double, 5, 5> Hr = ps.H_cov;
   Hr.diagonal().array() += 1e-9;
   res.covariance = s2 * Hr.inverse();
   res.ok = res.covariance.allFinite() && o.allFinite() && z.allFinite();

@@ -29,6 +29,12 @@ struct ThesisBaseline::Impl {
   std::array<std::deque<Cloud::Ptr>, kNumEnds> layers;
   std::array<bool, kNumEnds> has_pose{{false, false}};
   std::array<Eigen::Matrix4f, kNumEnds> pose;  ///< T_world_model of the last cycle
+
+  /// Step 4: label l's model pre-aligned (translated onto seg's centroid unless last cycle's
+  /// pose still lies within baseline.prealign_distance) and registered to seg by ICP,
+  /// baseline.icp_runs x icp_iterations. Keeps the result as the next cycle's start; false
+  /// when ICP did not converge or gave a non-finite transform.
+  bool align(int l, const Cloud::Ptr& seg, Eigen::Matrix4f* T, double* fitness);
 };
 
 ThesisBaseline::ThesisBaseline(const EstimatorConfig& config) : impl_(std::make_unique<Impl>()) {
@@ -59,14 +65,15 @@ void ThesisBaseline::reset() {
   }
 }
 
-// Over 120 lines because it follows the thesis's chapter 3.4 step by step, to be read beside it.
-void ThesisBaseline::process(const std::vector<CycleCamera>& cams, CycleResult* result) {
-  const EstimatorConfig& cfg = impl_->config;
-  const auto& bl = cfg.baseline;
-  // 1. Cut-out: box mapped to depth pixels by the focal-length ratio about the principal points.
-  auto t0 = Clock::now();
+namespace {
+
+/// Step 1, the cut-out: each box mapped to depth pixels by the focal-length ratio about the
+/// principal points; the points inside the range and the work zone, per label, in the world
+/// frame. *cam_names: per label, the cameras that boxed it.
+std::array<Cloud::Ptr, kNumEnds> cutOutByFocalRatio(
+    const std::vector<CycleCamera>& cams, const EstimatorConfig& cfg,
+    std::array<std::vector<std::string>, kNumEnds>* cam_names) {
   std::array<Cloud::Ptr, kNumEnds> cycle{{Cloud::Ptr(new Cloud), Cloud::Ptr(new Cloud)}};
-  std::array<std::vector<std::string>, kNumEnds> cam_names;
   for (const CycleCamera& cam : cams) {
     const DepthProjector proj(cam.depth);
     const double sx = cam.depth.fx() / cam.color.fx(), sy = cam.depth.fy() / cam.color.fy();
@@ -79,8 +86,9 @@ void ThesisBaseline::process(const std::vector<CycleCamera>& cams, CycleResult* 
     const Eigen::Isometry3f T = cam.T_world_depth.cast<float>();
     for (const DetectionBox& b : cam.boxes) {
       const int l = static_cast<int>(b.label);
-      if (std::find(cam_names[l].begin(), cam_names[l].end(), cam.name) == cam_names[l].end())
-        cam_names[l].push_back(cam.name);
+      auto& names = (*cam_names)[l];
+      if (std::find(names.begin(), names.end(), cam.name) == names.end())
+        names.push_back(cam.name);
       // Clamped to +-1e9 px before the conversion to int (a box far off the image is no int).
       auto px = [](double x) { return static_cast<int>(std::clamp(x, -1e9, 1e9)); };
       const int u0 = px(std::floor(to_du(b.x_min)));
@@ -97,6 +105,71 @@ void ThesisBaseline::process(const std::vector<CycleCamera>& cams, CycleResult* 
       });
     }
   }
+  return cycle;
+}
+
+/// Step 3, the segmentation: the square of side bl.square_size about the centroid (x, y) of the
+/// fused points in the height band. *in_band: how many points the band held.
+Cloud::Ptr squareExclusion(const Cloud& fused, const EstimatorConfig::Baseline& bl,
+                           size_t* in_band) {
+  double sx = 0, sy = 0;
+  size_t n = 0;
+  for (const auto& p : fused)
+    if (p.z >= bl.band_min_z && p.z <= bl.band_max_z) {
+      sx += p.x;
+      sy += p.y;
+      ++n;
+    }
+  Cloud::Ptr seg(new Cloud);
+  if (n > 0) {
+    const double cx = sx / n, cy = sy / n, h = bl.square_size / 2;
+    for (const auto& p : fused)
+      if (std::abs(p.x - cx) <= h && std::abs(p.y - cy) <= h) seg->push_back(p);
+  }
+  *in_band = n;
+  return seg;
+}
+
+}  // namespace
+
+bool ThesisBaseline::Impl::align(int l, const Cloud::Ptr& seg, Eigen::Matrix4f* T_out,
+                                 double* fitness) {
+  const auto& bl = config.baseline;
+  Eigen::Vector3f c = Eigen::Vector3f::Zero();
+  for (const auto& p : *seg) c += p.getVector3fMap();
+  c /= static_cast<float>(seg->size());
+  Eigen::Matrix4f T = pose[l];
+  const Eigen::Vector3f model_c = T.block<3, 3>(0, 0) * model_centroid[l] + T.block<3, 1>(0, 3);
+  if (!has_pose[l] || (model_c - c).norm() > bl.prealign_distance) {
+    T.setIdentity();  // model loaded at the origin, translated onto the cloud's centroid
+    T.block<3, 1>(0, 3) = c - model_centroid[l];
+  }
+  pcl::IterativeClosestPoint<pcl::PointXYZ, pcl::PointXYZ> icp;
+  icp.setInputSource(models[l]);
+  icp.setInputTarget(seg);
+  icp.setMaximumIterations(bl.icp_iterations);
+  Cloud aligned;
+  bool converged = false;
+  for (int r = 0; r < bl.icp_runs; ++r) {
+    icp.align(aligned, T);
+    converged = icp.hasConverged();
+    T = icp.getFinalTransformation();
+  }
+  *fitness = icp.getFitnessScore();
+  pose[l] = T;
+  has_pose[l] = true;
+  *T_out = T;
+  return converged && T.allFinite();
+}
+
+// Follows the thesis's chapter 3.4 step by step, to be read beside it.
+void ThesisBaseline::process(const std::vector<CycleCamera>& cams, CycleResult* result) {
+  const EstimatorConfig& cfg = impl_->config;
+  const auto& bl = cfg.baseline;
+  // 1. Cut-out.
+  auto t0 = Clock::now();
+  std::array<std::vector<std::string>, kNumEnds> cam_names;
+  const std::array<Cloud::Ptr, kNumEnds> cycle = cutOutByFocalRatio(cams, cfg, &cam_names);
   result->timing.cutout_ms = msSince(t0);
 
   // 2. Fusion: concatenate the last `layers` clouds per end.
@@ -121,20 +194,8 @@ void ThesisBaseline::process(const std::vector<CycleCamera>& cams, CycleResult* 
     }
     // 3. Square exclusion around the centroid of the points in the height band.
     t0 = Clock::now();
-    double sx = 0, sy = 0;
     size_t n = 0;
-    for (const auto& p : *fused[l])
-      if (p.z >= bl.band_min_z && p.z <= bl.band_max_z) {
-        sx += p.x;
-        sy += p.y;
-        ++n;
-      }
-    Cloud::Ptr seg(new Cloud);
-    if (n > 0) {
-      const double cx = sx / n, cy = sy / n, h = bl.square_size / 2;
-      for (const auto& p : *fused[l])
-        if (std::abs(p.x - cx) <= h && std::abs(p.y - cy) <= h) seg->push_back(p);
-    }
+    const Cloud::Ptr seg = squareExclusion(*fused[l], bl, &n);
     result->timing.segmentation_ms += msSince(t0);
     if (seg->size() < bl.min_points) {
       e.reason = n == 0 ? "no points in the segmentation height band"
@@ -145,32 +206,11 @@ void ThesisBaseline::process(const std::vector<CycleCamera>& cams, CycleResult* 
 
     // 4. Pre-alignment (translation to the centroid) and ICP, 10 x 200 iterations.
     t0 = Clock::now();
-    Eigen::Vector3f c = Eigen::Vector3f::Zero();
-    for (const auto& p : *seg) c += p.getVector3fMap();
-    c /= static_cast<float>(seg->size());
-    Eigen::Matrix4f T = impl_->pose[l];
-    const Eigen::Vector3f model_c =
-        T.block<3, 3>(0, 0) * impl_->model_centroid[l] + T.block<3, 1>(0, 3);
-    if (!impl_->has_pose[l] || (model_c - c).norm() > bl.prealign_distance) {
-      T.setIdentity();  // model loaded at the origin, translated onto the cloud's centroid
-      T.block<3, 1>(0, 3) = c - impl_->model_centroid[l];
-    }
-    pcl::IterativeClosestPoint<pcl::PointXYZ, pcl::PointXYZ> icp;
-    icp.setInputSource(impl_->models[l]);
-    icp.setInputTarget(seg);
-    icp.setMaximumIterations(bl.icp_iterations);
-    Cloud aligned;
-    bool converged = false;
-    for (int r = 0; r < bl.icp_runs; ++r) {
-      icp.align(aligned, T);
-      converged = icp.hasConverged();
-      T = icp.getFinalTransformation();
-    }
-    const double fitness = icp.getFitnessScore();
+    Eigen::Matrix4f T;
+    double fitness = 0;
+    const bool converged = impl_->align(l, seg, &T, &fitness);
     result->timing.registration_ms += msSince(t0);
-    impl_->pose[l] = T;
-    impl_->has_pose[l] = true;
-    if (!converged || !T.allFinite()) {
+    if (!converged) {
       e.reason = "ICP did not converge";
       continue;
     }
