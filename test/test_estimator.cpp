@@ -1521,6 +1521,30 @@ TEST(PoseEstimator, EmptyInputAndNoBoxesGiveReasons) {
   EXPECT_NE(r.camera_errors[0].find("cam2"), std::string::npos) << r.camera_errors[0];
 }
 
+TEST(PoseEstimator, ATransformThatIsNotRigidIsRefusedNamingTheCamera) {
+  // A TF of arbitrary numbers (found by the sensor_frame_cutout fuzz harness: a finite 4x4 with
+  // entries of 1e305 turned every cut-out point into NaN) is refused with the camera and the
+  // transform named; the other cameras go on.
+  Scene scene;
+  scene.joints.push_back(makeJoint(EndLabel::kBoxEnd, poseAt({5, 5, 1.2}, {0, 0, 1})));
+  auto inputs = renderAll(scene, ring({5, 5, 1.0}, 5.5, 4.5), {});
+  inputs[1].T_world_depth.matrix()(0, 1) = 1.7e296;  // rotation no longer orthonormal
+  inputs[2].T_world_depth.translation().x() = 1e7;    // 10 000 km away
+  inputs[3].T_color_depth.linear() *= 1.01;           // a scale, not a rotation
+  PoseEstimator est(testConfig());
+  const CycleResult r = est.process(inputs);
+  ASSERT_EQ(r.camera_errors.size(), 3u);
+  EXPECT_NE(r.camera_errors[0].find("cam2: T_world_depth is not a rigid transform"),
+            std::string::npos)
+      << r.camera_errors[0];
+  EXPECT_NE(r.camera_errors[1].find("cam3: T_world_depth translation"), std::string::npos)
+      << r.camera_errors[1];
+  EXPECT_NE(r.camera_errors[2].find("cam4: T_color_depth is not a rigid transform"),
+            std::string::npos)
+      << r.camera_errors[2];
+  EXPECT_EQ(r.cameras_used.size(), inputs.size() - 3);
+}
+
 TEST(PoseEstimator, TimingSixCameras) {
   Scene scene;
   scene.joints.push_back(makeJoint(EndLabel::kBoxEnd, poseAt({4.694, 5.3, 1.23}, {0, 0, 1})));

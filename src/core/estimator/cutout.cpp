@@ -13,8 +13,23 @@ namespace drill_pipe_pose {
 
 namespace {
 
-bool finiteIsometry(const Eigen::Isometry3d& T) {
-  return T.matrix().allFinite();
+/// Throws InputError naming the camera and the transform unless T is a rigid transform: finite,
+/// its rotation orthonormal with determinant +1 (within 1e-3: a rotation from a quaternion
+/// rounded to 4 decimals passes; a transform of arbitrary numbers does not, and its points would
+/// overflow to inf and NaN), its translation within kMaxTranslation.
+void checkRigid(const Eigen::Isometry3d& T, const std::string& camera, const char* name) {
+  constexpr double kMaxTranslation = 1e4;  // [m] far beyond any rig's extent
+  if (!T.matrix().allFinite()) fail(camera, ": ", name, " is not finite");
+  const Eigen::Matrix3d R = T.linear();
+  const double ortho = (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
+  if (!(ortho <= 1e-3) || !(R.determinant() > 0))
+    fail(camera, ": ", name, " is not a rigid transform (its rotation is off orthonormal by ",
+         ortho, ", determinant ", R.determinant(), ")");
+  if (!(T.translation().norm() <= kMaxTranslation))
+    fail(camera, ": ", name, " translation ", T.translation().norm(), " m exceeds ",
+         kMaxTranslation, " m");
+  if (T.matrix().row(3) != Eigen::RowVector4d(0, 0, 0, 1))
+    fail(camera, ": ", name, " is not a rigid transform (last row not 0 0 0 1)");
 }
 
 bool insideBox(const DetectionBox& b, const Eigen::Vector2d& uv, double margin) {
@@ -38,8 +53,8 @@ CycleCamera makeCycleCamera(const SensorFrameData& frame, const Eigen::Isometry3
   // Corrected where read (DepthImage::depthAt): the cut-out, carving's occlusion test and the
   // seen-through pixels all see the true depth, and no pixel is copied.
   cam.image.setCorrection(correction, n + " depth");
-  if (!finiteIsometry(T_world_depth)) fail(n, ": T_world_depth is not finite");
-  if (!finiteIsometry(T_color_depth)) fail(n, ": T_color_depth is not finite");
+  checkRigid(T_world_depth, n, "T_world_depth");
+  checkRigid(T_color_depth, n, "T_color_depth");
   cam.T_world_depth = T_world_depth;
   cam.T_color_depth = T_color_depth;
   cam.T_color_world = T_color_depth * T_world_depth.inverse();
