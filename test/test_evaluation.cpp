@@ -152,4 +152,8 @@ TEST(Evaluation, EveryEndCountsReportsOnAnotherEndAndKeepsExamples) {
   ASSERT_EQ(ev.near_examples.size(), 2u);
   EXPECT_EQ(ev.near_examples[0].id, 4u);
   EXPECT_EQ(ev.near_examples[0].label, EndLabel::kBoxEnd);
+  // The stray report kept with its distance to its label's nearest true end (box end a: 5 m).
+  ASSERT_EQ(ev.stray_examples.size(), 2u);
+  EXPECT_EQ(ev.stray_examples[0].first.id, 4u);
+  EXPECT_NEAR(ev.stray_examples[0].second, (pin + Eigen::Vector3d(-0.12, 0, 0) - a).norm(), 1e-9);
 }

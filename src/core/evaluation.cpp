@@ -226,7 +226,11 @@ InstanceEvaluation evaluateInstances(const TrueEnds& truth, const std::vector<Re
       double own = std::numeric_limits<double>::infinity();
       if (const std::vector<Eigen::Vector3d>* t = trueAt(static_cast<int>(r->label), stamp))
         for (const Eigen::Vector3d& p : *t) own = std::min(own, (r->origin - p).norm());
-      if (own > match_distance) ++ev.stray;
+      constexpr size_t kExamples = 5;
+      if (own > match_distance) {
+        ++ev.stray;
+        if (ev.stray_examples.size() < kExamples) ev.stray_examples.emplace_back(*r, own);
+      }
       // Within near_distance of a true end that is not the one it stands for (its label's
       // nearest).
       for (int l = 0; l < kNumEnds; ++l) {
@@ -237,7 +241,6 @@ InstanceEvaluation evaluateInstances(const TrueEnds& truth, const std::vector<Re
           const bool its_own = l == static_cast<int>(r->label) && d == own;
           if (!its_own && d < near_distance) {
             ++ev.near_other;
-            constexpr size_t kExamples = 5;
             if (ev.near_examples.size() < kExamples) ev.near_examples.push_back(*r);
             l = kNumEnds;
             break;

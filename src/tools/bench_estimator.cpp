@@ -333,6 +333,10 @@ void reportInstances(const BenchOptions& o, const InstanceEvaluation& ev) {
     std::cout << "every end, near another end: " << labelName(r.label) << " #" << r.id << " at ("
               << r.origin.x() << ", " << r.origin.y() << ", " << r.origin.z() << ") stamp "
               << r.stamp_ns * 1e-9 << " s\n";
+  for (const auto& [r, d] : ev.stray_examples)
+    std::cout << "every end, off its label's ends: " << labelName(r.label) << " #" << r.id
+              << " at (" << r.origin.x() << ", " << r.origin.y() << ", " << r.origin.z()
+              << ") stamp " << r.stamp_ns * 1e-9 << " s, " << d << " m from the nearest\n";
   if (ev.mixed_ids > 0) {
     std::cout << "every end, ids on more than one end:";
     for (const auto& [id, ends] : ev.id_truth)

@@ -112,6 +112,8 @@ struct InstanceEvaluation {
   size_t stray = 0;         ///< reports with no true end of their label within match_distance
   size_t near_other = 0;    ///< reports within near_distance of another end's true position
   std::vector<ReportedEnd> near_examples;  ///< the first few of those (for a diagnosis)
+  /// The first few stray reports with their distance [m] to their label's nearest true end.
+  std::vector<std::pair<ReportedEnd, double>> stray_examples;
   std::map<uint32_t, std::set<std::pair<int, size_t>>> id_truth;  ///< id -> (label, true end)
 };
 
