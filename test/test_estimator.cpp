@@ -777,6 +777,43 @@ TEST(Instances, AnotherPipeSizeDoesNotCompeteAndANewcomerWaitsForTheOthers) {
 // the means differ by more than instances.radius_difference plus their standard errors.
 // The offsets are those of cluttered seed 1's first decisions (its 5" pin end and the lying
 // 4.5" pipe beside it), whose scatter once ruled the 5" end out as "another pipe size".
+TEST(Instances, AFitReversedAgainstADecidedInstanceIsThatInstanceFlipped) {
+  // A lying pin end decided 5 times at (2.2, 6.25, 1.09), pointing along -x; a fit of the same
+  // end with its pin taken for the tube points along +x a tong length (0.26 m) toward the tube
+  // (catwalk_twin seed 191).
+  EstimatorConfig::Instances ic;
+  const int64_t now = 5000000000;
+  InstanceMemory pin;
+  pin.origin = Eigen::Vector3d(2.2, 6.25, 1.09);
+  pin.z = -Eigen::Vector3d::UnitX();
+  pin.decisions = 5;
+  pin.stamp_ns = now - 200000000;
+  std::vector<InstanceMemory> memory{pin};
+  const Eigen::Vector3d flipped_at(2.46, 6.25, 1.09), x = Eigen::Vector3d::UnitX();
+  EXPECT_EQ(reversedAgainst(flipped_at, x, memory, now, ic), &memory[0]);
+  // Its own direction, another pipe beside it (0.4 m across), too far along the axis: not it.
+  EXPECT_EQ(reversedAgainst(flipped_at, -x, memory, now, ic), nullptr);
+  EXPECT_EQ(reversedAgainst({2.46, 6.65, 1.09}, x, memory, now, ic), nullptr);
+  EXPECT_EQ(reversedAgainst({2.7, 6.25, 1.09}, x, memory, now, ic), nullptr);
+  // An instance of its own direction within track_gate: another end that is decided so.
+  std::vector<InstanceMemory> with_own = memory;
+  InstanceMemory own = pin;
+  own.origin = Eigen::Vector3d(2.42, 6.25, 1.09);
+  own.z = x;
+  with_own.push_back(own);
+  EXPECT_EQ(reversedAgainst(flipped_at, x, with_own, now, ic), nullptr);
+  // Not decided min_decisions times, forgotten (older than memory_s), or the rule off.
+  memory[0].decisions = ic.min_decisions - 1;
+  EXPECT_EQ(reversedAgainst(flipped_at, x, memory, now, ic), nullptr);
+  memory[0].decisions = 5;
+  EXPECT_EQ(reversedAgainst(flipped_at, x, memory,
+                            pin.stamp_ns + static_cast<int64_t>((ic.memory_s + 0.1) * 1e9), ic),
+            nullptr);
+  EstimatorConfig::Instances off = ic;
+  off.reversal_reach = 0.0;
+  EXPECT_EQ(reversedAgainst(flipped_at, x, memory, now, off), nullptr);
+}
+
 TEST(Instances, ScatteredRadiiRuleNoSizeOutUntilTheDifferenceIsClear) {
   const EstimatorConfig::Instances ic;  // 3 decisions, radius_difference 2.5 mm
   const Eigen::Vector3d a(1, 1, 1), b(2, 1, 1);

@@ -123,6 +123,8 @@ ParamTable<EstimatorConfig> makeEstimatorTable() {
         "instances whose radii differ by more are two pipe sizes; 0: off"),
       P("instances/memory_s", instances.memory_s, "s", positive(),
         "an instance not decided for this long is forgotten"),
+      P("instances/reversal_reach", instances.reversal_reach, "m", atLeast(0),
+        "a fit reversed against an instance this far along its axis is that one flipped (0: off)"),
 
       P("axis_fit/min_points", axis_fit.min_points, "", atLeast(10),
         "fewer carved points: the end is invalid"),

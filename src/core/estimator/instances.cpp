@@ -225,6 +225,27 @@ const InstanceMemory* otherSize(const InstanceMemory& entry,
   return nullptr;
 }
 
+const InstanceMemory* reversedAgainst(const Eigen::Vector3d& origin, const Eigen::Vector3d& z,
+                                      const std::vector<InstanceMemory>& memory,
+                                      int64_t stamp_ns, const EstimatorConfig::Instances& ic) {
+  if (!(ic.reversal_reach > 0)) return nullptr;
+  const InstanceMemory* against = nullptr;
+  for (const InstanceMemory& e : memory) {
+    const double age = static_cast<double>(stamp_ns - e.stamp_ns) * 1e-9;
+    if (!(age >= 0 && age <= ic.memory_s)) continue;
+    const Eigen::Vector3d q = origin - e.origin;
+    if (e.z.dot(z) > 0) {
+      if (q.norm() <= ic.track_gate) return nullptr;  // its own entry
+      continue;
+    }
+    const double along = q.dot(e.z);
+    if (e.decisions >= ic.min_decisions && std::abs(along) <= ic.reversal_reach &&
+        (q - along * e.z).norm() <= ic.track_gate)
+      against = &e;
+  }
+  return against;
+}
+
 namespace {
 
 /// One candidate of the choice: a fit of this cycle (with its memory entry) or a remembered entry.
@@ -281,6 +302,7 @@ std::vector<Competitor> joinFits(std::vector<InstanceMemory>* memory_ptr,
           ((x - before) * (x - e.radius_offset) - e.radius_variance) / e.radius_samples;
     }
     e.origin = fits[k].origin;
+    e.z = fits[k].z;
     e.stamp_ns = stamp_ns;
     (*updated)[m] = true;
     comp.push_back({static_cast<int>(k), static_cast<size_t>(m), e.mean_cost, e.decisions});

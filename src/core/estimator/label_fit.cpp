@@ -93,6 +93,28 @@ std::vector<std::pair<size_t, size_t>> followedClusters(
   return out;
 }
 
+/// A fit of this label's model reversed against a decided instance of the label
+/// (reversedAgainst) is that instance fitted flipped: *c becomes not ok, its reason says why.
+/// True when it was.
+bool rejectFlipped(const CycleContext& ctx, int l, const std::vector<InstanceMemory>& memory,
+                   Candidate* c) {
+  const EstimatorConfig& config = ctx.config;
+  const EndLabel detected = static_cast<EndLabel>(l);
+  if (!c->ok || c->fit.label != detected) return false;
+  const InstanceMemory* e =
+      reversedAgainst(c->fit.origin, c->fit.z, memory, ctx.stamp_ns, config.instances);
+  if (!e) return false;
+  std::ostringstream s;
+  s.precision(3);
+  s << "axis reversed against the " << labelName(detected) << " instance at (" << e->origin.x()
+    << ", " << e->origin.y() << ", " << e->origin.z() << "), " << (c->fit.origin - e->origin).norm()
+    << " m away (decided " << e->decisions << " times; instances.reversal_reach = "
+    << config.instances.reversal_reach << " m): that end fitted flipped, not taken";
+  c->ok = false;
+  c->reason = s.str();
+  return true;
+}
+
 /// The label's candidate among the instances decided this cycle (`inst`; [0] is the track's
 /// when `tracked_first`): instances that fit this label's model compete, the other model's only
 /// when none does (the label is then corrected).
@@ -102,12 +124,14 @@ Candidate chooseCandidate(const CycleContext& ctx, int l, std::vector<Candidate>
   *chosen = -1;
   const EstimatorConfig& config = ctx.config;
   const EndLabel detected = static_cast<EndLabel>(l);
+  for (Candidate& c : inst) rejectFlipped(ctx, l, *memory, &c);
   bool any_native = false;
   for (const Candidate& c : inst) any_native = any_native || (c.ok && c.fit.label == detected);
   std::vector<InstanceFit> fits(inst.size());
   for (size_t k = 0; k < inst.size(); ++k) {
     const Candidate& c = inst[k];
-    fits[k] = {c.ok && (!any_native || c.fit.label == detected), c.fit.origin, c.fit.cost, {}};
+    fits[k] = {c.ok && (!any_native || c.fit.label == detected), c.fit.origin, c.fit.cost, {},
+               c.fit.z};
     if (fits[k].competes && config.instances.radius_difference > 0)
       fits[k].radius = radiusOffset(ctx.models.models[static_cast<int>(c.fit.label)],
                                     ctx.models.joint_radius[static_cast<int>(c.fit.label)],
@@ -178,6 +202,7 @@ void startOtherEnds(const CycleContext& ctx, int l,
       tried = tried || (t.first - centroid).norm() <= config.instances.track_gate;
     if (tried) continue;
     Candidate c = InstanceFitter(ctx, l, pts).fit(Track(), false, timing);
+    rejectFlipped(ctx, l, state->memory, &c);
     if (c.ok && static_cast<int>(c.fit.label) == l)
       others->push_back({-1, std::move(c)});
     else
@@ -231,6 +256,7 @@ Candidate fitLabel(const CycleContext& ctx, int l, const std::vector<CloudPoint>
     taken[k] = true;
     others->push_back({static_cast<int>(s), InstanceFitter(ctx, l, pointsOf(k))
                                                 .fit(state->others[s].track, true, timing)});
+    if (!others->back().cd.tracked) rejectFlipped(ctx, l, state->memory, &others->back().cd);
     reported[k] = others->back().cd.ok;
   }
   // The instances decided this cycle: the track's (when its fit is not simply tracked: a

@@ -158,6 +158,14 @@ struct EstimatorConfig {
     /// (docs/conventions.md, sensor profiles): 2.5 mm lies between (chosen on cluttered).
     double radius_difference = 0.0025;
     double memory_s = 3.0;      ///< [s] an instance not decided for this long is forgotten
+    /// [m] A decided fit whose axis is reversed against a remembered instance (min_decisions
+    /// decided), lies within track_gate of that instance's axis line and at most this far along
+    /// it, and has no instance of its own direction within track_gate, is that instance fitted
+    /// flipped (a lying pin end whose pin passes for the tube), not another end: it is not
+    /// taken (0: off). A flipped pin fit lies about a tong length (0.23-0.27 m) along the axis
+    /// from the true one (catwalk_twin seed 191); 0.4 m leaves room for longer box tongs and
+    /// stays below the 0.9 m between the ends of the shortest pipe the scenes hold.
+    double reversal_reach = 0.4;
   } instances;
 
   /// Point-set limits and the robust cylinder-axis fit (radius known: tool-joint OD / 2).

@@ -38,6 +38,7 @@ std::vector<std::vector<size_t>> splitAtSupport(const std::vector<CloudPoint>& p
 /// at one place) over the last cycles (EstimatorConfig::Instances).
 struct InstanceMemory {
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();  ///< the last decided fit's origin
+  Eigen::Vector3d z = Eigen::Vector3d::UnitZ();      ///< the last decided fit's axis direction
   /// Mean fit cost (the refined fit's mean truncated squared residual [m^2]) of the last
   /// `decisions` decisions (running mean).
   double mean_cost = 0.0;
@@ -60,12 +61,21 @@ const InstanceMemory* otherSize(const InstanceMemory& entry,
                                 const std::vector<InstanceMemory>& memory,
                                 const EstimatorConfig::Instances& config);
 
+/// The remembered instance (decided at least min_decisions times, within memory_s of stamp_ns)
+/// that a fit at (origin, z) is the flipped fit of, or null: its axis reversed against the
+/// entry's, within track_gate of the entry's axis line and at most reversal_reach along it,
+/// with no entry of its own direction within track_gate (never when reversal_reach is 0).
+const InstanceMemory* reversedAgainst(const Eigen::Vector3d& origin, const Eigen::Vector3d& z,
+                                      const std::vector<InstanceMemory>& memory,
+                                      int64_t stamp_ns, const EstimatorConfig::Instances& config);
+
 /// One instance decided this cycle, for chooseInstance.
 struct InstanceFit {
   bool competes = false;  ///< a valid fit that may be the label's end (the caller decides)
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();
   double cost = 0.0;  ///< ProfileFitResult::cost
   RadiusCheck radius;  ///< the fit's radius check (not ok: not measured)
+  Eigen::Vector3d z = Eigen::Vector3d::UnitZ();  ///< the fit's axis direction
 };
 
 /// The choice among a label's instances: `index` into the fits, or -1 with `reason`.
