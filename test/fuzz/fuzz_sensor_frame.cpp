@@ -44,24 +44,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     } catch (const InputError&) {
       // A bad frame is documented to be rejected at the door; the estimator below must also
       // reject it on its own (a frame can reach it unconverted from a bag): pass it on raw.
-      ci.frame.camera = msg->camera;
-      ci.frame.color_info = fromMsg(msg->color_info);
-      ci.frame.depth_info = fromMsg(msg->depth_info);
       try {
-        ci.frame.depth = depthFromMsg(msg->depth, msg->camera + " depth");
+        ci.frame = fuzz::rawFrame(*msg);
       } catch (const InputError&) {
         continue;  // no DepthImage to pass on (unsupported encoding)
-      }
-      // The boxes as they are, even inverted or NaN: the estimator checks them itself.
-      for (const PipeBox& b : msg->boxes) {
-        DetectionBox d;
-        d.label = b.label == PipeBox::PIN_END ? EndLabel::kPinEnd : EndLabel::kBoxEnd;
-        d.confidence = b.confidence;
-        d.x_min = b.x_min;
-        d.y_min = b.y_min;
-        d.x_max = b.x_max;
-        d.y_max = b.y_max;
-        ci.frame.boxes.push_back(d);
       }
       ci.T_world_depth = cam.T_world_depth;
       ci.T_color_depth = cam.T_color_depth;

@@ -33,26 +33,6 @@ using namespace drill_pipe_pose;
 
 namespace {
 
-/// The frame as the estimator would see it from a bag: the message's fields, boxes as they are.
-SensorFrameData rawFrame(const SensorFrame& msg) {
-  SensorFrameData f;
-  f.camera = msg.camera;
-  f.color_info = fromMsg(msg.color_info);
-  f.depth_info = fromMsg(msg.depth_info);
-  f.depth = depthFromMsg(msg.depth, msg.camera + " depth");  // InputError: unsupported encoding
-  for (const PipeBox& b : msg.boxes) {
-    DetectionBox d;
-    d.label = b.label == PipeBox::PIN_END ? EndLabel::kPinEnd : EndLabel::kBoxEnd;
-    d.confidence = b.confidence;
-    d.x_min = b.x_min;
-    d.y_min = b.y_min;
-    d.x_max = b.x_max;
-    d.y_max = b.y_max;
-    f.boxes.push_back(d);
-  }
-  return f;
-}
-
 void fail(const char* what, uint16_t camera) {
   std::fprintf(stderr, "sensor_frame_cutout: camera %u: %s\n", static_cast<unsigned>(camera),
                what);
@@ -84,7 +64,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       }
     } catch (const InputError&) {
       try {
-        frame = rawFrame(*msg);
+        frame = fuzz::rawFrame(*msg);
       } catch (const InputError&) {
         continue;  // no DepthImage to pass on (unsupported encoding)
       }

@@ -36,6 +36,8 @@
 #include <vector>
 
 #include "drill_pipe_pose/core/depth_image.hpp"
+#include "drill_pipe_pose/core/sensor_frame.hpp"
+#include "drill_pipe_pose/ros/conversions.hpp"
 #include "fuzz_input.hpp"
 
 namespace drill_pipe_pose::fuzz {
@@ -374,6 +376,28 @@ inline std::vector<uint8_t> encodeSensorInput(const FuzzSensorInput& in) {
     }
   }
   return w.bytes();
+}
+
+/// A message the conversion refused, as the estimator would get it from a bag: the fields
+/// converted one by one and the boxes as they are, even inverted or NaN (the estimator checks
+/// them itself). Throws InputError for a depth encoding it cannot read.
+inline SensorFrameData rawFrame(const SensorFrame& msg) {
+  SensorFrameData f;
+  f.camera = msg.camera;
+  f.color_info = fromMsg(msg.color_info);
+  f.depth_info = fromMsg(msg.depth_info);
+  f.depth = depthFromMsg(msg.depth, msg.camera + " depth");
+  for (const PipeBox& b : msg.boxes) {
+    DetectionBox d;
+    d.label = b.label == PipeBox::PIN_END ? EndLabel::kPinEnd : EndLabel::kBoxEnd;
+    d.confidence = b.confidence;
+    d.x_min = b.x_min;
+    d.y_min = b.y_min;
+    d.x_max = b.x_max;
+    d.y_max = b.y_max;
+    f.boxes.push_back(d);
+  }
+  return f;
 }
 
 }  // namespace drill_pipe_pose::fuzz
