@@ -408,6 +408,37 @@ TEST(EstimatorSim, EveryEndOnTheDrillFloorWithItsOwnId) {
   EXPECT_GT(last_box.y(), 5.6) << "seed " << seed << ": the primary box end is the single's";
 }
 
+TEST(EstimatorSim, ANewOtherEndIsPublishedFromItsConfirmFitsFit) {
+  // drill_floor: the single's box end in the mousehole is an other end from the first cycles.
+  // With instances/confirm_fits = 1 it is published from its first fit; with 3, two cycles
+  // later, and then in the same cycles as with 1 (a one-cycle fit of no end is never published).
+  const uint32_t seed = 91;
+  const int cycles = 12;
+  auto simulator = makeSimulator("drill_floor", seed);
+  std::vector<std::vector<CameraInput>> inputs;
+  for (int k = 0; k < cycles; ++k) inputs.push_back(renderCycle(*simulator, k));
+  const auto firstOther = [&](int confirm, std::vector<int>* published) {
+    EstimatorConfig cfg = configIn(*simulator);
+    cfg.instances.confirm_fits = confirm;
+    PoseEstimator est(cfg);
+    int first = -1;
+    for (int k = 0; k < cycles; ++k) {
+      const CycleResult r = est.process(inputs[static_cast<size_t>(k)]);
+      published->push_back(static_cast<int>(r.others.size()));
+      if (first < 0 && !r.others.empty()) first = k;
+    }
+    return first;
+  };
+  std::vector<int> at_once, confirmed;
+  const int first_at_once = firstOther(1, &at_once);
+  const int first_confirmed = firstOther(3, &confirmed);
+  ASSERT_GE(first_at_once, 0) << "seed " << seed << ": no other end published";
+  EXPECT_EQ(first_confirmed, first_at_once + 2) << "seed " << seed;
+  for (int k = first_confirmed; k < cycles; ++k)
+    EXPECT_EQ(confirmed[static_cast<size_t>(k)], at_once[static_cast<size_t>(k)])
+        << "seed " << seed << " cycle " << k << ": other ends published";
+}
+
 TEST(EstimatorSim, TwinPipesEndsKeepTheirIdsWhileThePrimaryMoves) {
   // catwalk_twin: two identical pipes 0.4 m apart. Which of them the primary pair is, is not in
   // the data, so the primary end moves between them; each end keeps its own id all the same

@@ -125,6 +125,8 @@ ParamTable<EstimatorConfig> makeEstimatorTable() {
         "an instance not decided for this long is forgotten"),
       P("instances/reversal_reach", instances.reversal_reach, "m", atLeast(0),
         "a fit reversed against an instance this far along its axis is that one flipped (0: off)"),
+      P("instances/confirm_fits", instances.confirm_fits, "", atLeast(1),
+        "fits a new other end needs before it is published (1: from its first)"),
 
       P("axis_fit/min_points", axis_fit.min_points, "", atLeast(10),
         "fewer carved points: the end is invalid"),

@@ -21,6 +21,7 @@ struct OtherEnd {
   Track track;
   uint32_t id = 0;  ///< instance id (never reused)
   TypeEvidence evidence;
+  int fits = 0;  ///< fits followed; published from instances.confirm_fits on
 };
 
 /// A fit of an OtherEnd this cycle: `other` indexes LabelState::others, -1 for a new end.

@@ -654,6 +654,9 @@ void outputOthers(std::array<std::vector<OtherFit>, kNumEnds>* fits, EstimatorSt
         if (ls.others.size() >= static_cast<size_t>(config.instances.max_other_ends)) continue;
         ls.others.push_back(OtherEnd());
         followed.push_back(true);
+        // An end that was the primary's keeps its id and is published at once; a new one
+        // after instances.confirm_fits fits.
+        if (f.id != 0) ls.others.back().fits = config.instances.confirm_fits - 1;
         ls.others.back().id = f.id != 0 ? f.id : state->next_id++;
         f.other = static_cast<int>(ls.others.size()) - 1;
       }
@@ -662,6 +665,8 @@ void outputOthers(std::array<std::vector<OtherFit>, kNumEnds>* fits, EstimatorSt
                      {cd.fit.label, cd.fit.origin, cd.fit.z, cd.tracked, cd.direction_margin,
                       cd.has_support, cd.support_z},
                      config.tracking.max_gap, config.tracking.max_offset);
+      if (o.fits < config.instances.confirm_fits) ++o.fits;
+      if (o.fits < config.instances.confirm_fits) continue;
       EndEstimate e;
       fillEnd(l, cd, cams, config, &e, nullptr).addTo(&e, config);
       e.instance_id = o.id;

@@ -166,6 +166,13 @@ struct EstimatorConfig {
     /// from the true one (catwalk_twin seed 191); 0.4 m leaves room for longer box tongs and
     /// stays below the 0.9 m between the ends of the shortest pipe the scenes hold.
     double reversal_reach = 0.4;
+    /// Fits a new other end needs before it is published (1: from its first). An end that was
+    /// the primary's comes confirmed. A one-cycle fit of a cluster that is no end (a tube's
+    /// side, a pin fitted flipped before its end is decided) is then never published; a real
+    /// end appears one cycle later. 2 was chosen on catwalk_twin seeds 93, 190 and 191 (the
+    /// published ends off their label's ends, 1-3 per 10 s, were each a one-cycle other end);
+    /// held out on catwalk_twin 197-199 and drill_floor 197-198 (docs/seeds.md).
+    int confirm_fits = 2;
   } instances;
 
   /// Point-set limits and the robust cylinder-axis fit (radius known: tool-joint OD / 2).
