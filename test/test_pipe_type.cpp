@@ -191,3 +191,20 @@ TEST(RadiusProbabilities, TwoEndsCountTogether) {
   for (double v : u) EXPECT_NEAR(v, 1.0 / kSizes.size(), 1e-12);
   EXPECT_EQ(jointOdProbability(u, kSizes, -1), 0.0);
 }
+
+TEST(PipeType, TheJointOdFromTheSearchesTheTypeWithinItFromTheEvidence) {
+  // The searched radii give each joint OD its share, the evidence on the track splits a shared
+  // OD between its types (the tube); a share the evidence leaves at zero is split evenly.
+  const std::vector<double> by_od{0.1, 0.3, 0.6};       // 6-5/8" joints: 0.4 in all
+  const std::vector<double> within{0.18, 0.72, 0.1};    // the tube says 5" (4 to 1)
+  const std::vector<double> p = splitByJointOd(by_od, within, kTypes);
+  ASSERT_EQ(p.size(), 3u);
+  EXPECT_NEAR(p[0], 0.08, 1e-12);
+  EXPECT_NEAR(p[1], 0.32, 1e-12);
+  EXPECT_NEAR(p[2], 0.6, 1e-12);  // the 7" joint: the searches' share, whatever the evidence
+  const std::vector<double> q = splitByJointOd(by_od, {0.0, 0.0, 1.0}, kTypes);
+  EXPECT_NEAR(q[0], 0.2, 1e-12);
+  EXPECT_NEAR(q[1], 0.2, 1e-12);
+  // Mismatched sizes: the searches' probabilities as they are.
+  EXPECT_EQ(splitByJointOd(by_od, {1.0}, kTypes), by_od);
+}

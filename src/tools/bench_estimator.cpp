@@ -239,6 +239,8 @@ struct Tally {
     size_t valid = 0;
     std::map<std::string, size_t> top;
     std::map<std::string, double> probability;
+    /// Per type: its least probability in a cycle whose published type was another.
+    std::map<std::string, double> least_not_top;
     double od = 0.0, od_spread = 0.0;
     size_t measurements = 0;
   };
@@ -273,8 +275,13 @@ void tally(const CycleOutput& out, double ms, Tally* t) {
     Tally::Types& ty = t->types[e];
     ++ty.valid;
     ++ty.top[est.type];
-    for (size_t k = 0; k < est.type_names.size() && k < est.type_probabilities.size(); ++k)
+    for (size_t k = 0; k < est.type_names.size() && k < est.type_probabilities.size(); ++k) {
       ty.probability[est.type_names[k]] += est.type_probabilities[k];
+      if (est.type_names[k] != est.type) {
+        auto [it, fresh] = ty.least_not_top.emplace(est.type_names[k], est.type_probabilities[k]);
+        if (!fresh) it->second = std::min(it->second, est.type_probabilities[k]);
+      }
+    }
     if (est.type_measurements > 0) {
       ty.od = est.measured_od;
       ty.od_spread = est.measured_od_spread;
@@ -404,8 +411,12 @@ void report(const BenchOptions& o, const std::string& method, size_t n_cameras, 
       std::cout << "TYPE label=" << label << " end=" << labelName(static_cast<EndLabel>(e))
                 << " type=" << name << std::setprecision(4)
                 << " top_share=" << (it == ty.top.end() ? 0.0 : 1.0 * it->second / ty.valid)
-                << " mean_probability=" << sum / ty.valid << " measured_od_mm=" << ty.od * 1e3
-                << "\n";
+                << " mean_probability=" << sum / ty.valid;
+      // 1 where the type was published in every valid cycle.
+      const auto least = ty.least_not_top.find(name);
+      std::cout << " least_probability_not_top="
+                << (least == ty.least_not_top.end() ? 1.0 : least->second)
+                << " measured_od_mm=" << ty.od * 1e3 << "\n";
     }
   }
   // One machine-readable line per end for scripts/bench.

@@ -51,6 +51,8 @@ struct Candidate {
   float support_z = 0.0f;  ///< [m] world height of the support
   /// The points the pose refinement used (of pts): the fit's inliers are counted among them.
   size_t fit_points = 0;
+  /// The fit was rejected for its residual or its inliers (a model of another size fits so).
+  bool poor_fit = false;
 };
 
 /// Time [ms] one label's stages spent, summed over its instances.

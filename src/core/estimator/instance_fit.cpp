@@ -367,6 +367,7 @@ void InstanceFitter::gate() {
     s << "model fit rejected: RMS residual " << cd_.fit.rms * 1000 << " mm, inliers "
       << cd_.fit.inliers << "/" << cd_.fit_points;
     cd_.reason = s.str();
+    cd_.poor_fit = true;
     return;
   }
   if (cd_.axial_from_scan && cd_.axial_contrast < fsc.min_axial_contrast) {

@@ -136,6 +136,26 @@ bool sameJointOd(const PipeCandidate& a, const PipeCandidate& b) {
   return std::abs(a.dims.tool_joint_od - b.dims.tool_joint_od) < kSameJointOd;
 }
 
+std::vector<double> splitByJointOd(const std::vector<double>& by_od,
+                                   const std::vector<double>& within,
+                                   const std::vector<PipeCandidate>& candidates) {
+  const size_t n = candidates.size();
+  if (by_od.size() != n || within.size() != n) return by_od;
+  std::vector<double> out(n, 0.0);
+  for (size_t k = 0; k < n; ++k) {
+    double od = 0, in = 0;
+    size_t members = 0;
+    for (size_t j = 0; j < n; ++j)
+      if (sameJointOd(candidates[j], candidates[k])) {
+        od += by_od[j];
+        in += within[j];
+        ++members;
+      }
+    out[k] = in > 0 ? od * within[k] / in : od / static_cast<double>(members);
+  }
+  return out;
+}
+
 int topType(const std::vector<double>& probabilities) {
   if (probabilities.empty()) return -1;
   return static_cast<int>(std::max_element(probabilities.begin(), probabilities.end()) -

@@ -405,6 +405,18 @@ std::vector<double> searchedProbabilities(const EndType& et, const EndType& othe
   return radiusProbabilities({&et.measured, &other.measured}, cands, tc);
 }
 
+/// The joint radius of end `slot` searched for (measureJointRadius) and added to its track's.
+void searchJointRadius(int slot, const Candidate& cd, const EstimatorConfig& config,
+                       RadiusModelCache* radius_models, EndType* et) {
+  const RadiusSearch rs = measureJointRadius(slot, cd, et->type, config, radius_models);
+  // With the search's own error, doubled: the searches scatter 1.1-2.9 times their stated
+  // error (seed-92 design bags, thesis lab and catwalk). Counted as exact, one search on part
+  // of the cameras that read a 5" NC50 joint 7-14 mm over withheld its pose (classifyEnd) until
+  // the next decision, ten and more cycles later (thesis_vertical, seed 1).
+  constexpr double kSearchScatter = 2.0;
+  if (rs.ok) et->measured.add(rs.radius, kSearchScatter * rs.std);
+}
+
 /// The type end `slot` takes at a decision. The joint's radius is searched for at the
 /// decision (measureJointRadius: the end refitted with models of other radii until one explains
 /// the points) and averaged on the track; measured against its own model alone, a joint of
@@ -427,15 +439,7 @@ int nextType(int slot, const Candidate& cd, const std::vector<PipeCandidate>& ca
                     jointOdProbability(radiusProbabilities({&et.measured}, cands, config.typing),
                                        cands, et.type) >= sp;
   const bool due = !sure || ++et.decisions % kSettled == 0;
-  if (cands.size() > 1 && due) {
-    const RadiusSearch rs = measureJointRadius(slot, cd, et.type, config, radius_models);
-    // With the search's own error, doubled: the searches scatter 1.1-2.9 times their stated
-    // error (seed-92 design bags, thesis lab and catwalk). Counted as exact, one search on part
-    // of the cameras that read a 5" NC50 joint 7-14 mm over withheld its pose (classifyEnd) until
-    // the next decision, ten and more cycles later (thesis_vertical, seed 1).
-    constexpr double kSearchScatter = 2.0;
-    if (rs.ok) et.measured.add(rs.radius, kSearchScatter * rs.std);
-  }
+  if (cands.size() > 1 && due) searchJointRadius(slot, cd, config, radius_models, &et);
   const auto same_od = [&](int k) { return sameJointOd(cands[k], cands[et.type]); };
   if (et.measured.count() >= enough) {
     const std::vector<double> pm = searchedProbabilities(et, other, cands, config.typing);
@@ -525,7 +529,18 @@ void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
   e->type = cands[et->type].name;
   e->type_names.clear();
   for (const PipeCandidate& c : cands) e->type_names.push_back(c.name);
-  e->type_probabilities = p;
+  // Published: the joint OD as the searched radii say, the type within it as the evidence
+  // says. Measured against its own model, a joint of another size reads only part of the way to
+  // its radius, so the evidence leans toward the model: a 4-1/2" NC50 joint on the catwalk,
+  // fitted with the 5" NC50 model, read 165.6 mm for 161.9 and gave its true type 0.28 on
+  // average (seed 93). Before its first search (a track whose end changed goes on to its next
+  // decision with its evidence restarted) every joint OD is as likely: the evidence alone gave
+  // the true type under 0.01 while the published one was another (catwalk, 4" NC46, seed 93).
+  e->type_probabilities = splitByJointOd(
+      et->measured.count() >= kMinSearched
+          ? searchedProbabilities(*et, other, cands, config.typing)
+          : std::vector<double>(cands.size(), 1.0 / static_cast<double>(cands.size())),
+      p, cands);
   e->measured_od = 2 * et->evidence.joint.mean();
   e->measured_od_spread = 2 * et->evidence.joint.spread();
   e->type_measurements = et->evidence.joint.count();
@@ -547,6 +562,35 @@ void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
       e->reason = s.str();
     }
   }
+}
+
+/// End `slot` has had no pose for tracking.max_gap (or never), and its own label's fit at this
+/// decision was rejected for its residual: classifyEnd never measures such an end, yet a model of
+/// another size is what fits so (a 6-5/8" FH 8-1/4" OD joint fitted with the 5" NC50 model, 41 mm
+/// too thin, was rejected in every cycle, both ends: thesis_vertical, seed 200). Its joint radius
+/// is searched for all the same, and the end takes another joint OD by nextType's rule (that OD's
+/// type typing.switch_probability likely, or the current one below 1 - that).
+void measureRejectedEnd(int slot, const Candidate& cd, const std::vector<PipeCandidate>& cands,
+                        int64_t stamp_ns, const EstimatorConfig& config,
+                        RadiusModelCache* radius_models, const EndType& other, EndType* et,
+                        EndPoseFilter* filter) {
+  const bool unpublished =
+      et->last_valid_ns == 0 ||
+      static_cast<double>(stamp_ns - et->last_valid_ns) * 1e-9 > config.tracking.max_gap;
+  if (!config.typing.enabled || cands.size() < 2 || !unpublished || cd.ok || !cd.poor_fit ||
+      !cd.fit.ok || cd.tracked || static_cast<int>(cd.fit.label) != slot)
+    return;
+  searchJointRadius(slot, cd, config, radius_models, et);
+  if (et->measured.count() < kMinSearched) return;
+  const std::vector<double> pm = searchedProbabilities(*et, other, cands, config.typing);
+  const int top = topType(pm);
+  const double sp = config.typing.switch_probability;
+  if (top < 0 || sameJointOd(cands[top], cands[et->type]) ||
+      (pm[top] < sp && jointOdProbability(pm, cands, et->type) >= 1.0 - sp))
+    return;
+  et->type = top;
+  filter->reset();
+  et->evidence.reset();
 }
 
 /// A new other fit of label l at `origin` (no track of it followed its cluster) that lies on an
@@ -887,6 +931,10 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
   const std::array<int, kNumEnds> owner = assignEnds(cand, config_.instances.track_gate);
   for (int slot = 0; slot < kNumEnds; ++slot) {
     const Candidate* cd = owner[slot] < 0 ? nullptr : &cand[owner[slot]];
+    if (!cd)
+      measureRejectedEnd(slot, cand[slot], impl_->candidates, stamp_ns, config_,
+                         &impl_->radius_models, state.types[1 - slot], &state.types[slot],
+                         &state.filters[slot]);
     outputEnd(slot, cd, cand, cams, stamp_ns, &state.filters[slot], config_, &result);
     classifyEnd(slot, cd, models, impl_->candidates, stamp_ns, config_,
                 &impl_->radius_models, state.labels, state.types[1 - slot], &state.types[slot],

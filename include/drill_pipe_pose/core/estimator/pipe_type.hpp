@@ -117,6 +117,14 @@ bool sameJointOd(const PipeCandidate& a, const PipeCandidate& b);
 double jointOdProbability(const std::vector<double>& probabilities,
                           const std::vector<PipeCandidate>& candidates, int of);
 
+/// Each joint OD's summed probability taken from `by_od`, split among the candidates of that OD
+/// as `within` splits it (evenly where `within` gives them nothing). The searched radii say
+/// which joint OD (absolute, whatever the model), the evidence on the track which type within it
+/// (the tube).
+std::vector<double> splitByJointOd(const std::vector<double>& by_od,
+                                   const std::vector<double>& within,
+                                   const std::vector<PipeCandidate>& candidates);
+
 /// The index of the largest probability (the first of equals); -1 when empty.
 int topType(const std::vector<double>& probabilities);
 
