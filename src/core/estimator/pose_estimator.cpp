@@ -564,21 +564,22 @@ void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
   }
 }
 
-/// End `slot` has had no pose for tracking.max_gap (or never), and its own label's fit at this
-/// decision was rejected for its residual: classifyEnd never measures such an end, yet a model of
-/// another size is what fits so (a 6-5/8" FH 8-1/4" OD joint fitted with the 5" NC50 model, 41 mm
-/// too thin, was rejected in every cycle, both ends: thesis_vertical, seed 200). Its joint radius
-/// is searched for all the same, and the end takes another joint OD by nextType's rule (that OD's
-/// type typing.switch_probability likely, or the current one below 1 - that).
+/// End `slot` has never had a pose, and its own label's fit at this decision was rejected for
+/// its residual: classifyEnd never measures such an end, yet a model of another size is what
+/// fits so (a 6-5/8" FH 8-1/4" OD joint fitted with the 5" NC50 model, 41 mm too thin, was
+/// rejected in every cycle, both ends: thesis_vertical, seed 200). Its joint radius is searched
+/// for all the same, and the end takes another joint OD by nextType's rule (that OD's type
+/// typing.switch_probability likely, or the current one below 1 - that); the other end, measured
+/// neither, takes the same type (shareConnectionType). Only while neither end has a measurement:
+/// a 3-1/2" NC38 box end that took its size this way while its pin end was still fitted with the
+/// 5" NC50 model, whose pin is about as thick as that joint, had its box detections fit the pin
+/// model, published as the pin end 1.5 m from it for 6 cycles (thesis_vertical, seed 200).
 void measureRejectedEnd(int slot, const Candidate& cd, const std::vector<PipeCandidate>& cands,
-                        int64_t stamp_ns, const EstimatorConfig& config,
-                        RadiusModelCache* radius_models, const EndType& other, EndType* et,
-                        EndPoseFilter* filter) {
-  const bool unpublished =
-      et->last_valid_ns == 0 ||
-      static_cast<double>(stamp_ns - et->last_valid_ns) * 1e-9 > config.tracking.max_gap;
-  if (!config.typing.enabled || cands.size() < 2 || !unpublished || cd.ok || !cd.poor_fit ||
-      !cd.fit.ok || cd.tracked || static_cast<int>(cd.fit.label) != slot)
+                        const EstimatorConfig& config, RadiusModelCache* radius_models,
+                        const EndType& other, EndType* et, EndPoseFilter* filter) {
+  const bool other_measured = other.evidence.joint.count() > 0 || other.measured.count() > 0;
+  if (!config.typing.enabled || cands.size() < 2 || et->last_valid_ns != 0 || other_measured ||
+      cd.ok || !cd.poor_fit || !cd.fit.ok || cd.tracked || static_cast<int>(cd.fit.label) != slot)
     return;
   searchJointRadius(slot, cd, config, radius_models, et);
   if (et->measured.count() < kMinSearched) return;
@@ -932,9 +933,8 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
   for (int slot = 0; slot < kNumEnds; ++slot) {
     const Candidate* cd = owner[slot] < 0 ? nullptr : &cand[owner[slot]];
     if (!cd)
-      measureRejectedEnd(slot, cand[slot], impl_->candidates, stamp_ns, config_,
-                         &impl_->radius_models, state.types[1 - slot], &state.types[slot],
-                         &state.filters[slot]);
+      measureRejectedEnd(slot, cand[slot], impl_->candidates, config_, &impl_->radius_models,
+                         state.types[1 - slot], &state.types[slot], &state.filters[slot]);
     outputEnd(slot, cd, cand, cams, stamp_ns, &state.filters[slot], config_, &result);
     classifyEnd(slot, cd, models, impl_->candidates, stamp_ns, config_,
                 &impl_->radius_models, state.labels, state.types[1 - slot], &state.types[slot],
