@@ -245,7 +245,7 @@ void updateTracks(const std::array<Candidate, kNumEnds>& cand,
   }
 }
 
-/// Whether label `l`'s candidate was fitted, but failed (a registration that converged, then was
+/// Whether a label's candidate `own` was fitted, but failed (a registration that converged, then was
 /// gated: a joint of another size fitted with this type's models) more than `gate` from
 /// `origin`: the detector saw that end there, so a fit at `origin` is another end. Whichever
 /// model its fit took: a 3-1/2" NC38 box end whose own fit took the pin model and failed let the
