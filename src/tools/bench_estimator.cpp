@@ -234,14 +234,15 @@ struct Tally {
   /// Per camera, the largest |shift along the ray| [m] and rotation [deg] it reached.
   std::map<std::string, std::pair<double, double>> drift_max;
   /// Per end: valid cycles per published type, and per type name the sum of its probability;
-  /// the last measured tool-joint OD [m] and its number of measurements.
+  /// the last measured tool-joint OD and tube OD [m] and their numbers of measurements.
   struct Types {
     size_t valid = 0;
     std::map<std::string, size_t> top;
     std::map<std::string, double> probability;
     /// Per type: its least probability in a cycle whose published type was another.
     std::map<std::string, double> least_not_top;
-    double od = 0.0, od_spread = 0.0;
+    double od = 0.0, od_spread = 0.0, tube_od = 0.0;
+    size_t tube_measurements = 0;
     size_t measurements = 0;
   };
   std::array<Types, kNumEnds> types;
@@ -286,6 +287,10 @@ void tally(const CycleOutput& out, double ms, Tally* t) {
       ty.od = est.measured_od;
       ty.od_spread = est.measured_od_spread;
       ty.measurements = est.type_measurements;
+    }
+    if (est.tube_measurements > 0) {
+      ty.tube_od = est.measured_tube_od;
+      ty.tube_measurements = est.tube_measurements;
     }
   }
   if (t->poses_bag)
@@ -402,7 +407,8 @@ void report(const BenchOptions& o, const std::string& method, size_t n_cameras, 
     if (!ty.valid) continue;
     std::cout << std::fixed << "pipe type " << labelName(static_cast<EndLabel>(e)) << ": measured OD "
               << std::setprecision(1) << ty.od * 1e3 << " mm (spread " << ty.od_spread * 1e3
-              << " mm, " << ty.measurements << " measurements);";
+              << " mm, " << ty.measurements << " measurements), tube OD " << ty.tube_od * 1e3
+              << " mm (" << ty.tube_measurements << " measurements);";
     for (const auto& [name, n] : ty.top)
       std::cout << " " << name << " " << std::setprecision(1) << 100.0 * n / ty.valid << " %";
     std::cout << "\n";
