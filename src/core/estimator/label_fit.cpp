@@ -95,15 +95,14 @@ std::vector<std::pair<size_t, size_t>> followedClusters(
 
 /// A fit of this label's model reversed against a decided instance of the label
 /// (reversedAgainst) is that instance fitted flipped: *c becomes not ok, its reason says why.
-/// True when it was.
-bool rejectFlipped(const CycleContext& ctx, int l, const std::vector<InstanceMemory>& memory,
+void rejectFlipped(const CycleContext& ctx, int l, const std::vector<InstanceMemory>& memory,
                    Candidate* c) {
   const EstimatorConfig& config = ctx.config;
   const EndLabel detected = static_cast<EndLabel>(l);
-  if (!c->ok || c->fit.label != detected) return false;
+  if (!c->ok || c->fit.label != detected) return;
   const InstanceMemory* e =
       reversedAgainst(c->fit.origin, c->fit.z, memory, ctx.stamp_ns, config.instances);
-  if (!e) return false;
+  if (!e) return;
   std::ostringstream s;
   s.precision(3);
   s << "axis reversed against the " << labelName(detected) << " instance at (" << e->origin.x()
@@ -112,7 +111,6 @@ bool rejectFlipped(const CycleContext& ctx, int l, const std::vector<InstanceMem
     << config.instances.reversal_reach << " m): that end fitted flipped, not taken";
   c->ok = false;
   c->reason = s.str();
-  return true;
 }
 
 /// The label's candidate among the instances decided this cycle (`inst`; [0] is the track's

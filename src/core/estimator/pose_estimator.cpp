@@ -418,6 +418,19 @@ void searchJointRadius(int slot, const Candidate& cd, const EstimatorConfig& con
   if (rs.ok) et->measured.add(rs.radius, kSearchScatter * rs.std);
 }
 
+/// The type an end fitted with type `current` takes on its searched radii's probabilities `pm`:
+/// their top type where it has another joint OD and is `switch_probability` likely, or the
+/// current joint OD has fallen below 1 - that; else `current`.
+int searchedType(const std::vector<double>& pm, const std::vector<PipeCandidate>& cands,
+                 int current, double switch_probability) {
+  const int top = topType(pm);
+  if (top < 0 || sameJointOd(cands[top], cands[current])) return current;
+  if (pm[top] >= switch_probability ||
+      jointOdProbability(pm, cands, current) < 1.0 - switch_probability)
+    return top;
+  return current;
+}
+
 /// The type end `slot` takes at a decision. The joint's radius is searched for at the
 /// decision (measureJointRadius: the end refitted with models of other radii until one explains
 /// the points) and averaged on the track; measured against its own model alone, a joint of
@@ -441,15 +454,14 @@ int nextType(int slot, const Candidate& cd, const std::vector<PipeCandidate>& ca
                                        cands, et.type) >= sp;
   const bool due = !sure || ++et.decisions % kSettled == 0;
   if (cands.size() > 1 && due) searchJointRadius(slot, cd, config, radius_models, &et);
-  const auto same_od = [&](int k) { return sameJointOd(cands[k], cands[et.type]); };
   if (et.measured.count() >= enough) {
-    const std::vector<double> pm = searchedProbabilities(et, other, cands, config.typing);
-    const int top = topType(pm);
-    const double p_current = jointOdProbability(pm, cands, et.type);
-    if (top >= 0 && !same_od(top) && (pm[top] >= sp || p_current < 1.0 - sp)) return top;
+    const int searched =
+        searchedType(searchedProbabilities(et, other, cands, config.typing), cands, et.type, sp);
+    if (searched != et.type) return searched;
   }
   const int top = topType(p);
-  if (top >= 0 && top != et.type && et.evidence.joint.count() >= enough && same_od(top) &&
+  if (top >= 0 && top != et.type && et.evidence.joint.count() >= enough &&
+      sameJointOd(cands[top], cands[et.type]) &&
       (p[top] >= sp || p[et.type] < 1.0 - sp))
     return top;
   return et.type;
@@ -537,11 +549,11 @@ void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
   // average (seed 93). Before its first search (a track whose end changed goes on to its next
   // decision with its evidence restarted) every joint OD is as likely: the evidence alone gave
   // the true type under 0.01 while the published one was another (catwalk, 4" NC46, seed 93).
-  e->type_probabilities = splitByJointOd(
-      et->measured.count() >= kMinSearched
-          ? searchedProbabilities(*et, other, cands, config.typing)
-          : std::vector<double>(cands.size(), 1.0 / static_cast<double>(cands.size())),
-      p, cands);
+  const bool searched = et->measured.count() >= kMinSearched;
+  const std::vector<double> pm =
+      searched ? searchedProbabilities(*et, other, cands, config.typing)
+               : std::vector<double>(cands.size(), 1.0 / static_cast<double>(cands.size()));
+  e->type_probabilities = splitByJointOd(pm, p, cands);
   e->measured_od = 2 * et->evidence.joint.mean();
   e->measured_od_spread = 2 * et->evidence.joint.spread();
   e->type_measurements = et->evidence.joint.count();
@@ -551,17 +563,15 @@ void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
   // its pose is biased, or lies on another joint (a 6-5/8" FH box end 8-1/4" OD, fitted with
   // the 5" NC50 model, on the pin end 1.5 m away: thesis_vertical, seed 92). Not published
   // until the end has the type its radius says.
-  if (config.typing.enabled && et->measured.count() >= kMinSearched) {
-    const std::vector<double> pm = searchedProbabilities(*et, other, cands, config.typing);
-    if (jointOdProbability(pm, cands, et->type) < 1.0 - config.typing.switch_probability) {
-      std::ostringstream s;
-      s.precision(4);
-      s << "pipe type being measured: the joint's radius searches read " << 2e3 * et->measured.mean()
-        << " mm OD (" << et->measured.count() << " of them), unlikely for the model it is fitted with ("
-        << cands[et->type].name << ", " << 1e3 * cands[et->type].dims.tool_joint_od << " mm)";
-      e->valid = false;
-      e->reason = s.str();
-    }
+  if (config.typing.enabled && searched &&
+      jointOdProbability(pm, cands, et->type) < 1.0 - config.typing.switch_probability) {
+    std::ostringstream s;
+    s.precision(4);
+    s << "pipe type being measured: the joint's radius searches read " << 2e3 * et->measured.mean()
+      << " mm OD (" << et->measured.count() << " of them), unlikely for the model it is fitted with ("
+      << cands[et->type].name << ", " << 1e3 * cands[et->type].dims.tool_joint_od << " mm)";
+    e->valid = false;
+    e->reason = s.str();
   }
 }
 
@@ -569,9 +579,9 @@ void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
 /// its residual: classifyEnd never measures such an end, yet a model of another size is what
 /// fits so (a 6-5/8" FH 8-1/4" OD joint fitted with the 5" NC50 model, 41 mm too thin, was
 /// rejected in every cycle, both ends: thesis_vertical, seed 200). Its joint radius is searched
-/// for all the same, and the end takes another joint OD by nextType's rule (that OD's type
-/// typing.switch_probability likely, or the current one below 1 - that); the other end, measured
-/// neither, takes the same type (shareConnectionType). Only while neither end has a measurement:
+/// for all the same, and the end takes another joint OD by nextType's rule (searchedType: that
+/// OD's type typing.switch_probability likely, or the current one below 1 - that); the other
+/// end, measured neither, takes the same type (shareConnectionType). Only while neither end has a measurement:
 /// a 3-1/2" NC38 box end that took its size this way while its pin end was still fitted with the
 /// 5" NC50 model, whose pin is about as thick as that joint, had its box detections fit the pin
 /// model, published as the pin end 1.5 m from it for 6 cycles (thesis_vertical, seed 200).
@@ -584,13 +594,10 @@ void measureRejectedEnd(int slot, const Candidate& cd, const std::vector<PipeCan
     return;
   searchJointRadius(slot, cd, config, radius_models, et);
   if (et->measured.count() < kMinSearched) return;
-  const std::vector<double> pm = searchedProbabilities(*et, other, cands, config.typing);
-  const int top = topType(pm);
-  const double sp = config.typing.switch_probability;
-  if (top < 0 || sameJointOd(cands[top], cands[et->type]) ||
-      (pm[top] < sp && jointOdProbability(pm, cands, et->type) >= 1.0 - sp))
-    return;
-  et->type = top;
+  const int next = searchedType(searchedProbabilities(*et, other, cands, config.typing), cands,
+                                et->type, config.typing.switch_probability);
+  if (next == et->type) return;
+  et->type = next;
   filter->reset();
   et->evidence.reset();
 }
