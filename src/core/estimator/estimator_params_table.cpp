@@ -1,6 +1,6 @@
 // The pose estimator's parameter table (estimator_params_table.hpp). One line per parameter:
 // key, field, unit, allowed range, one line of documentation. Defaults are the struct's.
-// (Long by nature: a table, not logic.)
+// (Long by nature: tables, not logic; one function per section of keys.)
 
 #include "drill_pipe_pose/core/estimator/estimator_params_table.hpp"
 
@@ -13,9 +13,9 @@ namespace {
 using C = EstimatorConfig;
 #define P(key, field, unit, range, doc) DPP_PARAM(C, key, field, unit, range, doc)
 
-// Over 120 lines because it is the table itself: one row per parameter, nothing else.
-ParamTable<EstimatorConfig> makeEstimatorTable() {
-  ParamTable<C> t{
+/// Rows: the method, threads and work zone; the pipe type and the tool-joint model.
+ParamTable<C> generalRows() {
+  return {
       paramEnum<C>(
           "method", {"ours", "thesis_baseline"},
           "`ours`, or `thesis_baseline` (the thesis's chapter 3.4 steps, for comparison)",
@@ -73,7 +73,12 @@ ParamTable<EstimatorConfig> makeEstimatorTable() {
         "radial height of a thread ridge"),
       P("tool_joint/tube_length", dims.tube_length, "m", positive(),
         "tube below the taper that the models include"),
+  };
+}
 
+/// Rows: cutting out, carving and the instances of a label.
+ParamTable<C> segmentationRows() {
+  return {
       P("cutout/box_margin_px", cutout.box_margin_px, "px", atLeast(0),
         "a detection box is grown by this on every side (colour pixels)"),
       P("cutout/min_range", cutout.min_range, "m", positive(), "depth below this is ignored"),
@@ -127,7 +132,12 @@ ParamTable<EstimatorConfig> makeEstimatorTable() {
         "a fit reversed against an instance this far along its axis is that one flipped (0: off)"),
       P("instances/confirm_fits", instances.confirm_fits, "", atLeast(1),
         "fits a new other end needs before it is published (1: from its first)"),
+  };
+}
 
+/// Rows: the axis fit and the support plane.
+ParamTable<C> axisFitRows() {
+  return {
       P("axis_fit/min_points", axis_fit.min_points, "", atLeast(10),
         "fewer carved points: the end is invalid"),
       P("axis_fit/max_points", axis_fit.max_points, "", atLeast(20),
@@ -151,7 +161,12 @@ ParamTable<EstimatorConfig> makeEstimatorTable() {
         "a support plane holds at least this fraction of the points"),
       P("axis_fit/plane_min_extent", axis_fit.plane_min_extent, "m", atLeast(0),
         "...and spreads at least this much along its narrower direction"),
+  };
+}
 
+/// Rows: the profile fit.
+ParamTable<C> profileFitRows() {
+  return {
       P("profile_fit/search_step", profile_fit.search_step, "m", positive(),
         "step of the 1-DoF axial search"),
       P("profile_fit/silhouette_points", profile_fit.silhouette_points, "", anyValue(),
@@ -198,7 +213,12 @@ ParamTable<EstimatorConfig> makeEstimatorTable() {
         "a fit with a larger std along the axis is invalid"),
       P("profile_fit/max_tilt_std", profile_fit.max_tilt_std, "rad", positive(),
         "a fit with a larger tilt std is invalid"),
+  };
+}
 
+/// Rows: the free-space check.
+ParamTable<C> freeSpaceRows() {
+  return {
       P("free_space/enabled", free_space.enabled, "", anyValue(),
         "check hypotheses against the depth images' free space"),
       P("free_space/decide_hypotheses", free_space.decide_hypotheses, "", anyValue(),
@@ -225,7 +245,12 @@ ParamTable<EstimatorConfig> makeEstimatorTable() {
         "invalid when the flipped direction scores less than this much worse"),
       P("free_space/min_axial_contrast", free_space.min_axial_contrast, "points", anyValue(),
         "an axial position the score contradicts by more is invalid"),
+  };
+}
 
+/// Rows: noise, covariance and the temporal filter.
+ParamTable<C> uncertaintyRows() {
+  return {
       P("noise/scale", noise.scale, "", positive(),
         "depth sigma = scale x (1.5 - 0.5 z + 0.3 z^2) mm"),
       P("noise/min_sigma", noise.min_sigma, "m", positive(), "smallest depth sigma"),
@@ -259,7 +284,12 @@ ParamTable<EstimatorConfig> makeEstimatorTable() {
         "measurements that must agree with a held one before a restart; 0: at once"),
       P("temporal/max_gap", temporal.max_gap, "s", positive(),
         "a longer gap between measurements restarts the filter"),
+  };
+}
 
+/// Rows: drift watch and tracking.
+ParamTable<C> trackingRows() {
+  return {
       P("drift/enabled", drift.enabled, "", anyValue(),
         "measure each camera's disagreement with the fused fit (drift watch)"),
       P("drift/time_constant", drift.time_constant, "s", positive(),
@@ -297,7 +327,12 @@ ParamTable<EstimatorConfig> makeEstimatorTable() {
         "a refined origin further from the prediction is decided afresh"),
       P("tracking/max_prediction", tracking.max_prediction, "m", positive(),
         "largest move of the prediction"),
+  };
+}
 
+/// Rows: the thesis baseline.
+ParamTable<C> baselineRows() {
+  return {
       P("baseline/layers", baseline.layers, "cycles", atLeast(1),
         "thesis_baseline: concatenated clouds"),
       P("baseline/square_size", baseline.square_size, "m", positive(),
@@ -321,6 +356,16 @@ ParamTable<EstimatorConfig> makeEstimatorTable() {
       P("baseline/tilt_std", baseline.tilt_std, "rad", atLeast(0),
         "thesis_baseline: reported std about x and y"),
   };
+}
+
+/// Every row, in the order docs/parameters.md lists them.
+ParamTable<EstimatorConfig> makeEstimatorTable() {
+  ParamTable<C> t;
+  for (ParamTable<C> (*rows)() : {generalRows, segmentationRows, axisFitRows, profileFitRows,
+                                  freeSpaceRows, uncertaintyRows, trackingRows, baselineRows}) {
+    const ParamTable<C> r = rows();
+    t.insert(t.end(), r.begin(), r.end());
+  }
   return t;
 }
 #undef P
