@@ -1050,6 +1050,17 @@ TEST(ProfileRegistration, RadiusCheckMeasuresAThinnerJointWhateverThePose) {
     EXPECT_GT(at_truth.std, 0.0);
     EXPECT_LT(at_truth.std, 0.001);
     EXPECT_GT(at_truth.points, pts.size() / 2);
+    // Only the points whose model surface lies at most z_max along the axis count (the tube
+    // below a pin end's taper, not its pin cone at the same radius); extent is their span.
+    const RadiusCheck lower = radiusOffset(box, R, origin, z, pts, eyes, all, -0.15);
+    ASSERT_TRUE(lower.ok);
+    std::printf("delta %.4f: %zu points over %.3f m; below -0.15 m: %zu over %.3f m\n", delta,
+                at_truth.points, at_truth.extent, lower.points, lower.extent);
+    EXPECT_LT(lower.points, at_truth.points * 2 / 3);
+    EXPECT_NEAR(at_truth.extent, 0.22, 0.01);  // the points span z -0.25 to -0.03 m
+    EXPECT_NEAR(lower.extent, 0.10, 0.01);
+    EXPECT_NEAR(lower.offset, delta, 0.0015);
+    EXPECT_FALSE(radiusOffset(box, R, origin, z, pts, eyes, all, -0.3).ok) << "none below -0.3 m";
     const Eigen::Vector3d z_off = (z + 0.0087 * e2).normalized();  // 0.5 deg
     const RadiusCheck off_pose =
         radiusOffset(box, R, origin + 0.003 * e1, z_off, pts, eyes, all);

@@ -521,13 +521,20 @@ void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
   if (et->id == 0) et->id = (*next_id)++;
   e->instance_id = et->id;
   if (config.typing.enabled && cd) {
-    const auto measure = [&](double radius, RadiusMean* mean) {
+    // [m] the tube counts where its points span at least this along the axis, below the taper
+    // (a pin cone passes through the tube's radius): the floor's edge round a joint standing
+    // in it spans at most 0.026 m (thesis_vertical), the tube in a lying joint's boxes 0.1 m on
+    // average (catwalk_horizontal; seeds 93, 200, four sizes each).
+    constexpr double kMinTubeExtent = 0.05;
+    const auto measure = [&](double radius, RadiusMean* mean, double z_max, double min_extent) {
       const RadiusCheck rc = radiusOffset(models.models[slot], radius, cd->fit.origin, cd->fit.z,
-                                          cd->pts, cd->eyes, cd->fit.inlier_mask);
-      if (rc.ok) mean->add(radius + rc.offset, rc.std);
+                                          cd->pts, cd->eyes, cd->fit.inlier_mask, z_max);
+      if (rc.ok && rc.extent >= min_extent) mean->add(radius + rc.offset, rc.std);
     };
-    measure(models.joint_radius[slot], &et->evidence.joint);
-    measure(models.tube_radius[slot], &et->evidence.tube);
+    measure(models.joint_radius[slot], &et->evidence.joint,
+            std::numeric_limits<double>::infinity(), 0.0);
+    measure(models.tube_radius[slot], &et->evidence.tube, models.models[slot].zMin(),
+            kMinTubeExtent);
   }
   std::vector<double> p = et->evidence.probabilities(cands, config.typing, et->type);
   if (config.typing.enabled && cd && !cd->tracked && et->evidence.joint.count() > 0) {

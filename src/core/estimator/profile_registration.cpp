@@ -65,7 +65,7 @@ RadiusCheck radiusOffset(const ProfileModel& model, double od_radius,
                          const Eigen::Vector3d& origin, const Eigen::Vector3d& z_axis,
                          const std::vector<Eigen::Vector3f>& points,
                          const std::vector<Eigen::Vector3f>& eyes,
-                         const std::vector<uint8_t>& inlier_mask) {
+                         const std::vector<uint8_t>& inlier_mask, double z_max) {
   RadiusCheck out;
   const Eigen::Vector3d z = z_axis.normalized();
   Eigen::Vector3d e1, e2;
@@ -76,6 +76,7 @@ RadiusCheck radiusOffset(const ProfileModel& model, double od_radius,
   Eigen::Matrix<double, 5, 1> Je = Eigen::Matrix<double, 5, 1>::Zero(),
                               G = Eigen::Matrix<double, 5, 1>::Zero();
   double D = 0, ge = 0, ss = 0;
+  double z_lo = std::numeric_limits<double>::infinity(), z_hi = -z_lo;
   size_t n = 0;
   const size_t m = std::min({points.size(), eyes.size(), inlier_mask.size()});
   for (size_t i = 0; i < m; ++i) {
@@ -99,13 +100,18 @@ RadiusCheck radiusOffset(const ProfileModel& model, double od_radius,
     // surface outward, toward the point.
     const double hit_r = rc - e * gr.y();
     if (std::abs(gr.x()) > 0.1 || std::abs(hit_r - od_radius) > 0.003) continue;
+    const double hit_z = zc - e * gr.x();
+    if (hit_z > z_max) continue;
     const double jr = -gr.y();
     G += J * jr;
     D += jr * jr;
     ge += jr * e;
     ++out.points;
+    z_lo = std::min(z_lo, hit_z);
+    z_hi = std::max(z_hi, hit_z);
   }
   if (n < 10 || out.points < 10) return out;
+  out.extent = z_hi - z_lo;
   Eigen::Matrix<double, 5, 5> Pd = P;
   Pd.diagonal().array() += 1e-9 + 1e-9 * P.diagonal().array();
   const Eigen::LDLT<Eigen::Matrix<double, 5, 5>> ldlt(Pd);

@@ -19,6 +19,7 @@ struct RadiusCheck {
   double offset = 0;   ///< [m] measured minus model radius (a thinner joint: negative)
   double std = 0;      ///< [m] its standard deviation (from the residuals' scatter)
   size_t points = 0;   ///< inlier points on the OD
+  double extent = 0;   ///< [m] their span along the axis
 };
 
 /// Result of the profile registration of one hypothesis.
@@ -91,11 +92,14 @@ Eigen::Matrix<double, 5, 1> profileJacobian(const Eigen::Vector3d& q, double zc,
 /// eliminated, so a shift of the axis does not pass for a radius). Another pipe size's joint
 /// fits the model almost as well as the right one (its axis moves to make up for the radius),
 /// but not its radius: 4.75 mm thinner for a 4.5" pipe's 6 1/4" joint beside a 5" pipe's.
+/// Only points whose model surface lies at most `z_max` along the axis count (the tube: below
+/// the taper, not a pin cone that passes through the tube's radius).
 RadiusCheck radiusOffset(const ProfileModel& model, double od_radius,
                          const Eigen::Vector3d& origin, const Eigen::Vector3d& z,
                          const std::vector<Eigen::Vector3f>& points,
                          const std::vector<Eigen::Vector3f>& eyes,
-                         const std::vector<uint8_t>& inlier_mask);
+                         const std::vector<uint8_t>& inlier_mask,
+                         double z_max = std::numeric_limits<double>::infinity());
 
 /// Mean truncated squared residual [m^2] (profileResidual) of the points against `model` placed
 /// at (origin, z); `eyes` as in refineProfile.
