@@ -24,6 +24,9 @@ struct CycleContext {
   /// A full decision is planned for the box end's label in this cycle, so the pin end's
   /// periodic one waits a cycle (the two ends' decisions fall in different cycles).
   bool box_decides = false;
+  /// The models of both ends of pipe type k (index into the candidates), for an other end of
+  /// its own type: (*type_models)[k], null where none was built this cycle.
+  const std::vector<const EndModels*>* type_models = nullptr;
 };
 
 /// One instance's fitted candidate (a cluster of one detected label's carved points).

@@ -252,7 +252,15 @@ Candidate fitLabel(const CycleContext& ctx, int l, const std::vector<CloudPoint>
   std::vector<bool> reported(clusters.size(), false);  // an other end's fit of it was accepted
   for (const auto& [s, k] : followedClusters(ctx, state->others, clusters, carved, taken)) {
     taken[k] = true;
-    others->push_back({static_cast<int>(s), InstanceFitter(ctx, l, pointsOf(k))
+    // An other end of a type of its own is fitted with that type's models.
+    const int type = state->others[s].type;
+    const EndModels* own = ctx.type_models && type >= 0 &&
+                                   static_cast<size_t>(type) < ctx.type_models->size()
+                               ? (*ctx.type_models)[static_cast<size_t>(type)]
+                               : nullptr;
+    const CycleContext typed{ctx.config, own ? *own : ctx.models, ctx.cams, ctx.stamp_ns,
+                             ctx.box_decides, ctx.type_models};
+    others->push_back({static_cast<int>(s), InstanceFitter(typed, l, pointsOf(k))
                                                 .fit(state->others[s].track, true, timing)});
     if (!others->back().cd.tracked) rejectFlipped(ctx, l, state->memory, &others->back().cd);
     reported[k] = others->back().cd.ok;

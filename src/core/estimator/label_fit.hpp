@@ -20,7 +20,12 @@ namespace drill_pipe_pose {
 struct OtherEnd {
   Track track;
   uint32_t id = 0;  ///< instance id (never reused)
-  TypeEvidence evidence;
+  /// Its pipe type (index into the candidates; its label's when it is created), whose models its
+  /// fits use (CycleContext::type_models).
+  int type = -1;
+  TypeEvidence evidence;  ///< measured against that model
+  RadiusMean measured;    ///< its searched joint radii (measureJointRadius), absolute
+  int searches = 0;       ///< fits since its searched radii were sure of its joint OD
   int fits = 0;  ///< fits followed; published from instances.confirm_fits on
 };
 

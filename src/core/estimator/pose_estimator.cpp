@@ -80,7 +80,11 @@ struct PoseEstimator::Impl {
   }
   /// The models of the ends' current types (built once per pair of types).
   const EndModels& models(const EstimatorConfig& config) {
-    const std::pair<int, int> key{state.types[0].type, state.types[1].type};
+    return modelsOf(config, state.types[0].type, state.types[1].type);
+  }
+  /// The models of a box end of type `box` and a pin end of type `pin`.
+  const EndModels& modelsOf(const EstimatorConfig& config, int box, int pin) {
+    const std::pair<int, int> key{box, pin};
     auto it = model_sets.find(key);
     if (it == model_sets.end())
       it = model_sets
@@ -406,16 +410,35 @@ std::vector<double> searchedProbabilities(const EndType& et, const EndType& othe
   return radiusProbabilities({&et.measured, &other.measured}, cands, tc);
 }
 
-/// The joint radius of end `slot` searched for (measureJointRadius) and added to its track's.
-void searchJointRadius(int slot, const Candidate& cd, const EstimatorConfig& config,
-                       RadiusModelCache* radius_models, EndType* et) {
-  const RadiusSearch rs = measureJointRadius(slot, cd, et->type, config, radius_models);
+/// The joint radius of an end of label `slot` fitted (cd) with type `type`, searched for
+/// (measureJointRadius) and added to its track's searched radii.
+void searchJointRadius(int slot, const Candidate& cd, int type, const EstimatorConfig& config,
+                       RadiusModelCache* radius_models, RadiusMean* measured) {
+  const RadiusSearch rs = measureJointRadius(slot, cd, type, config, radius_models);
   // With the search's own error, doubled: the searches scatter 1.1-2.9 times their stated
   // error (seed-92 design bags, thesis lab and catwalk). Counted as exact, one search on part
   // of the cameras that read a 5" NC50 joint 7-14 mm over withheld its pose (classifyEnd) until
   // the next decision, ten and more cycles later (thesis_vertical, seed 1).
   constexpr double kSearchScatter = 2.0;
-  if (rs.ok) et->measured.add(rs.radius, kSearchScatter * rs.std);
+  if (rs.ok) measured->add(rs.radius, kSearchScatter * rs.std);
+}
+
+/// Once an end's searched radii are sure of its current joint OD (at least twice
+/// typing.min_measurements of them), searches come only every kSettled-th decision: each
+/// refits the end two to five times, and the cluttered scene's tracks restart often. Until then
+/// every decision searches: a pin end lying on the catwalk needs about ten (seed 92).
+constexpr int kSettled = 5;
+
+/// Whether an end of type `type` with searched radii `measured` searches at this decision
+/// (kSettled; *count counts its decisions once it is sure).
+bool searchDue(const RadiusMean& measured, int type, const std::vector<PipeCandidate>& cands,
+               const TypingConfig& tc, int* count) {
+  const size_t enough = static_cast<size_t>(std::max(1, tc.min_measurements));
+  const bool sure =
+      measured.count() >= 2 * enough &&
+      jointOdProbability(radiusProbabilities({&measured}, cands, tc), cands, type) >=
+          tc.switch_probability;
+  return !sure || ++*count % kSettled == 0;
 }
 
 /// The type an end fitted with type `current` takes on its searched radii's probabilities `pm`:
@@ -444,16 +467,8 @@ int nextType(int slot, const Candidate& cd, const std::vector<PipeCandidate>& ca
   EndType& et = *et_out;
   const double sp = config.typing.switch_probability;
   const size_t enough = static_cast<size_t>(std::max(1, config.typing.min_measurements));
-  // Once the end's searched radii are sure of its current joint OD (at least twice
-  // typing.min_measurements of them), searches come only every kSettled-th decision: each
-  // refits the end two to five times, and the cluttered scene's tracks restart often. Until then
-  // every decision searches: a pin end lying on the catwalk needs about ten (seed 92).
-  constexpr int kSettled = 5;
-  const bool sure = et.measured.count() >= 2 * enough &&
-                    jointOdProbability(radiusProbabilities({&et.measured}, cands, config.typing),
-                                       cands, et.type) >= sp;
-  const bool due = !sure || ++et.decisions % kSettled == 0;
-  if (cands.size() > 1 && due) searchJointRadius(slot, cd, config, radius_models, &et);
+  if (cands.size() > 1 && searchDue(et.measured, et.type, cands, config.typing, &et.decisions))
+    searchJointRadius(slot, cd, et.type, config, radius_models, &et.measured);
   if (et.measured.count() >= enough) {
     const int searched =
         searchedType(searchedProbabilities(et, other, cands, config.typing), cands, et.type, sp);
@@ -599,7 +614,7 @@ void measureRejectedEnd(int slot, const Candidate& cd, const std::vector<PipeCan
   if (!config.typing.enabled || cands.size() < 2 || et->last_valid_ns != 0 || other_measured ||
       cd.ok || !cd.poor_fit || !cd.fit.ok || cd.tracked || static_cast<int>(cd.fit.label) != slot)
     return;
-  searchJointRadius(slot, cd, config, radius_models, et);
+  searchJointRadius(slot, cd, et->type, config, radius_models, &et->measured);
   if (et->measured.count() < kMinSearched) return;
   const int next = searchedType(searchedProbabilities(*et, other, cands, config.typing), cands,
                                 et->type, config.typing.switch_probability);
@@ -647,14 +662,41 @@ void continueKnownEnd(int l, const Eigen::Vector3d& origin, int64_t stamp_ns,
   }
 }
 
+/// Other end `o` of label l, fitted (cd) with its type's model: its joint radius searched for at
+/// every fit until it has typing.min_measurements searched radii, then at its track's decisions
+/// as a primary end's is (searchDue), and its type switched as the searched radii say
+/// (searchedType); its evidence then restarts, and its next fit takes the new type's model.
+/// (Fitted with its label's model, a 4" NC46 single in the mousehole beside a 5" NC50 stump was
+/// published as 5" NC50 in every cycle: drill_floor, seeds 192-194. A search at every fit
+/// doubled the scene's median cycle time, 7.6 to 15.1 ms: the single's radii, 6.4 mm from the
+/// 4-1/2" NC46's, are seldom sure.)
+void typeOther(int l, const Candidate& cd, const std::vector<PipeCandidate>& cands,
+               const EstimatorConfig& config, RadiusModelCache* radius_models, OtherEnd* o) {
+  if (!config.typing.enabled || cands.size() < 2) return;
+  const size_t enough = static_cast<size_t>(std::max(1, config.typing.min_measurements));
+  if (o->measured.count() < enough ||
+      (!cd.tracked && searchDue(o->measured, o->type, cands, config.typing, &o->searches)))
+    searchJointRadius(l, cd, o->type, config, radius_models, &o->measured);
+  if (o->measured.count() < enough) return;
+  const int next =
+      searchedType(radiusProbabilities({&o->measured}, cands, config.typing), cands, o->type,
+                   config.typing.switch_probability);
+  if (next == o->type) return;
+  o->type = next;
+  o->evidence.reset();
+}
+
 /// Stage "other ends" (several pipes at once): each label's other fits (fitLabel) published in
-/// result->others with their own instance ids and their own type evidence (measured against the
-/// label's model, whose type they are given). A fit within instances.track_gate of an end
+/// result->others with their own instance ids and their own type: a new end takes its label's
+/// type of this cycle's fits (`fit_types`), then its own (typeOther), whose models its fits use
+/// (`type_models`, CycleContext). A fit within instances.track_gate of an end
 /// already published this cycle is the same end, and is dropped; a new fit on an end known
 /// otherwise keeps that end's id (continueKnownEnd). A track without a fit for
 /// tracking.max_gap is forgotten (its id is never reused).
 void outputOthers(std::array<std::vector<OtherFit>, kNumEnds>* fits, EstimatorState* state,
-                  const EndModels& models, const std::vector<PipeCandidate>& cands,
+                  const std::vector<const EndModels*>& type_models,
+                  const std::array<int, kNumEnds>& fit_types,
+                  const std::vector<PipeCandidate>& cands, RadiusModelCache* radius_models,
                   const std::vector<CycleCamera>& cams, int64_t stamp_ns,
                   const EstimatorConfig& config, CycleResult* result) {
   const double gate = config.instances.track_gate;
@@ -718,6 +760,7 @@ void outputOthers(std::array<std::vector<OtherFit>, kNumEnds>* fits, EstimatorSt
         // after instances.confirm_fits fits.
         if (f.id != 0) ls.others.back().fits = config.instances.confirm_fits - 1;
         ls.others.back().id = f.id != 0 ? f.id : state->next_id++;
+        ls.others.back().type = fit_types[l];
         f.other = static_cast<int>(ls.others.size()) - 1;
       }
       OtherEnd& o = ls.others[static_cast<size_t>(f.other)];
@@ -727,18 +770,36 @@ void outputOthers(std::array<std::vector<OtherFit>, kNumEnds>* fits, EstimatorSt
                      config.tracking.max_gap, config.tracking.max_offset);
       if (o.fits < config.instances.confirm_fits) ++o.fits;
       if (o.fits < config.instances.confirm_fits) continue;
-      EndEstimate e;
-      fillEnd(l, cd, cams, config, &e, nullptr).addTo(&e, config);
-      e.instance_id = o.id;
-      const int type = state->types[l].type;
+      // The models its fit used (its type's: set when it was created).
+      const EndModels& models = *type_models[static_cast<size_t>(o.type)];
       if (config.typing.enabled) {
         const RadiusCheck rc = radiusOffset(models.models[l], models.joint_radius[l], cd.fit.origin,
                                             cd.fit.z, cd.pts, cd.eyes, cd.fit.inlier_mask);
         if (rc.ok) o.evidence.joint.add(models.joint_radius[l] + rc.offset, rc.std);
       }
-      e.type = cands[type].name;
+      // Not published with a model its searched radii make unlikely (as a primary end is not,
+      // classifyEnd), nor in the cycle it takes another type (fitted with the last one): a 4"
+      // NC46 single beside a 5" NC50 stump was published as 5" NC50 in its first 5 cycles
+      // (drill_floor, seeds 192-199).
+      const int fitted_type = o.type;
+      typeOther(l, cd, cands, config, radius_models, &o);
+      if (o.type != fitted_type) continue;
+      if (config.typing.enabled && o.measured.count() >= kMinSearched &&
+          jointOdProbability(radiusProbabilities({&o.measured}, cands, config.typing), cands,
+                             o.type) < 1.0 - config.typing.switch_probability)
+        continue;
+      EndEstimate e;
+      fillEnd(l, cd, cams, config, &e, nullptr).addTo(&e, config);
+      e.instance_id = o.id;
+      e.type = cands[static_cast<size_t>(o.type)].name;
       for (const PipeCandidate& c : cands) e.type_names.push_back(c.name);
-      e.type_probabilities = o.evidence.probabilities(cands, config.typing, type);
+      // As a primary end's (classifyEnd): each joint OD as its searched radii say, the type
+      // within it as the evidence says.
+      e.type_probabilities = splitByJointOd(
+          o.measured.count() >= kMinSearched
+              ? radiusProbabilities({&o.measured}, cands, config.typing)
+              : std::vector<double>(cands.size(), 1.0 / static_cast<double>(cands.size())),
+          o.evidence.probabilities(cands, config.typing, o.type), cands);
       e.measured_od = 2 * o.evidence.joint.mean();
       e.measured_od_spread = 2 * o.evidence.joint.spread();
       e.type_measurements = o.evidence.joint.count();
@@ -922,8 +983,21 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
   // Instances, axis fit, hypotheses, refinement: per label (in parallel with threads >= 2;
   // the labels share nothing they write).
   const EndModels& models = impl_->models(config_);
+  // The models of the types this cycle's fits use: the labels' and each other end's own (built
+  // here, before the labels are fitted in parallel, which only look them up).
+  const std::array<int, kNumEnds> fit_types{{state.types[0].type, state.types[1].type}};
+  std::vector<const EndModels*> type_models(impl_->candidates.size(), nullptr);
+  const auto need = [&](int t) {
+    if (t >= 0 && !type_models[static_cast<size_t>(t)])
+      type_models[static_cast<size_t>(t)] = &impl_->modelsOf(config_, t, t);
+  };
+  for (int l = 0; l < kNumEnds; ++l) {
+    need(fit_types[l]);
+    for (const OtherEnd& o : state.labels[l].others) need(o.type);
+  }
   const CycleContext ctx{config_, models, cams, stamp_ns,
-                         boxDecides(cams, state.labels[0].track, stamp_ns, config_.tracking)};
+                         boxDecides(cams, state.labels[0].track, stamp_ns, config_.tracking),
+                         &type_models};
   std::array<Candidate, kNumEnds> cand;
   std::array<LabelTiming, kNumEnds> timing;
   std::array<std::vector<OtherFit>, kNumEnds> other_fits;
@@ -957,7 +1031,8 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
                 &state.next_id, &result.ends[slot]);
   }
   shareConnectionType(&state.types, &state.filters, config_.typing);
-  outputOthers(&other_fits, &state, models, impl_->candidates, cams, stamp_ns, config_, &result);
+  outputOthers(&other_fits, &state, type_models, fit_types, impl_->candidates,
+               &impl_->radius_models, cams, stamp_ns, config_, &result);
   if (config_.drift.enabled)
     watchDrift(cams, left_out, raw, cand, owner, models, stamp_ns, config_, &state.drift,
                &result);
