@@ -157,3 +157,32 @@ TEST(Evaluation, EveryEndCountsReportsOnAnotherEndAndKeepsExamples) {
   EXPECT_EQ(ev.stray_examples[0].first.id, 4u);
   EXPECT_NEAR(ev.stray_examples[0].second, (pin + Eigen::Vector3d(-0.12, 0, 0) - a).norm(), 1e-9);
 }
+
+TEST(Evaluation, EveryEndTalliesThePublishedTypesPerTrueEnd) {
+  // One box end reported in three cycles: twice as "4in" (probabilities 0.7 / 0.3), once as
+  // "5in" (0.4 / 0.6). Its tally: 2 and 1 reports per type, the probabilities summed, and each
+  // type's least probability in a report that published the other. A report without a type
+  // counts as reported, not in the tally.
+  TrueEnds truth;
+  const Eigen::Vector3d a(4.694, 4.85, 0.6);
+  const std::vector<std::string> names{"4in", "5in"};
+  std::vector<ReportedEnd> reports;
+  const int64_t t0 = 1000000000LL, dt = 33000000LL;
+  for (int k = 0; k < 4; ++k) truth[0][t0 + k * dt] = {a};
+  reports.push_back({t0, EndLabel::kBoxEnd, 1, a, "4in", names, {0.7, 0.3}});
+  reports.push_back({t0 + dt, EndLabel::kBoxEnd, 1, a, "5in", names, {0.4, 0.6}});
+  reports.push_back({t0 + 2 * dt, EndLabel::kBoxEnd, 1, a, "4in", names, {0.8, 0.2}});
+  reports.push_back({t0 + 3 * dt, EndLabel::kBoxEnd, 1, a});
+  const InstanceEvaluation ev = evaluateInstances(truth, reports);
+  EXPECT_EQ(ev.reported, 4u);
+  ASSERT_EQ(ev.types.count({0, 0}), 1u);
+  const TrueEndTypes& ty = ev.types.at({0, 0});
+  EXPECT_EQ(ty.reports, 3u);
+  EXPECT_EQ(ty.top.at("4in"), 2u);
+  EXPECT_EQ(ty.top.at("5in"), 1u);
+  EXPECT_NEAR(ty.probability.at("4in"), 1.9, 1e-12);
+  EXPECT_NEAR(ty.probability.at("5in"), 1.1, 1e-12);
+  EXPECT_NEAR(ty.least_not_top.at("4in"), 0.4, 1e-12);  // in the report that published 5in
+  EXPECT_NEAR(ty.least_not_top.at("5in"), 0.2, 1e-12);
+  EXPECT_NEAR((ty.position - a).norm(), 0.0, 1e-12);
+}

@@ -212,6 +212,21 @@ InstanceEvaluation evaluateInstances(const TrueEnds& truth, const std::vector<Re
         if (!best) continue;
         ++ev.reported;
         ++ev.per_end[{l, j}].second;
+        TrueEndTypes& ty = ev.types[{l, j}];
+        ty.position = (*t)[j];
+        if (!best->type.empty()) {
+          ++ty.reports;
+          ++ty.top[best->type];
+          for (size_t k = 0; k < best->type_names.size() && k < best->type_probabilities.size();
+               ++k) {
+            ty.probability[best->type_names[k]] += best->type_probabilities[k];
+            if (best->type_names[k] != best->type) {
+              auto [it, fresh] =
+                  ty.least_not_top.emplace(best->type_names[k], best->type_probabilities[k]);
+              if (!fresh) it->second = std::min(it->second, best->type_probabilities[k]);
+            }
+          }
+        }
         ev.id_truth[best->id].insert({l, j});
         auto it = last.find({l, j});
         if (it != last.end() && it->second.second + 1 == cycle) {

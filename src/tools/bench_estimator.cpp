@@ -296,11 +296,14 @@ void tally(const CycleOutput& out, double ms, Tally* t) {
   if (t->poses_bag)
     t->poses_bag->write(std::string("/drill_pipe_pose/") + conventions::kPipeEndsTopic,
                         fromNs(out.cycle.stamp_ns), toPipeEndsMsg(out, t->world_frame));
+  const auto reportOf = [&](const EndEstimate& e) {
+    return ReportedEnd{out.cycle.stamp_ns,        e.label,      e.instance_id,
+                       e.T_world_end.translation(), e.type,       e.type_names,
+                       e.type_probabilities};
+  };
   for (const EndEstimate& e : out.result.ends)
-    if (e.valid)
-      t->reported.push_back({out.cycle.stamp_ns, e.label, e.instance_id, e.T_world_end.translation()});
-  for (const EndEstimate& e : out.result.others)
-    t->reported.push_back({out.cycle.stamp_ns, e.label, e.instance_id, e.T_world_end.translation()});
+    if (e.valid) t->reported.push_back(reportOf(e));
+  for (const EndEstimate& e : out.result.others) t->reported.push_back(reportOf(e));
   std::string cams;
   for (const auto& c : out.result.cameras_used) cams += (cams.empty() ? "" : "+") + c;
   for (int e = 0; e < kNumEnds; ++e) {
@@ -327,7 +330,8 @@ void tally(const CycleOutput& out, double ms, Tally* t) {
 }
 
 /// Every end at once (several pipes): the true ends reported, the ids kept, and the reports
-/// off their end (evaluateInstances); an INSTANCES line for scripts.
+/// off their end (evaluateInstances), the types published on each; INSTANCES and ENDTYPE lines
+/// for scripts.
 void reportInstances(const BenchOptions& o, const InstanceEvaluation& ev) {
   const auto share = [](size_t a, size_t b) { return b ? static_cast<double>(a) / b : 0.0; };
   std::cout << std::setprecision(4) << "every end: " << ev.true_ends << " true ends, reported in "
@@ -358,6 +362,28 @@ void reportInstances(const BenchOptions& o, const InstanceEvaluation& ev) {
           std::cout << " " << labelName(static_cast<EndLabel>(l)) << " #" << j;
       }
     std::cout << "\n";
+  }
+  // Per true end, the types its reports published (one ENDTYPE line per end and type).
+  for (const auto& [end, ty] : ev.types) {
+    if (ty.reports == 0) continue;
+    std::cout << "every end, types on " << labelName(static_cast<EndLabel>(end.first)) << " #"
+              << end.second << " at (" << ty.position.x() << ", " << ty.position.y() << ", "
+              << ty.position.z() << "):";
+    for (const auto& [name, n] : ty.top)
+      std::cout << " " << name << " " << 100 * share(n, ty.reports) << " %";
+    std::cout << "\n";
+    for (const auto& [name, sum] : ty.probability) {
+      const auto top = ty.top.find(name);
+      const auto least = ty.least_not_top.find(name);
+      std::cout << "ENDTYPE label=" << (o.label.empty() ? o.bag_path : o.label)
+                << " end=" << labelName(static_cast<EndLabel>(end.first)) << " index=" << end.second
+                << " x=" << ty.position.x() << " y=" << ty.position.y()
+                << " z=" << ty.position.z() << " type=" << name << " reports=" << ty.reports
+                << " top_share=" << share(top == ty.top.end() ? 0 : top->second, ty.reports)
+                << " mean_probability=" << sum / static_cast<double>(ty.reports)
+                << " least_probability_not_top="
+                << (least == ty.least_not_top.end() ? 1.0 : least->second) << "\n";
+    }
   }
   std::cout << "INSTANCES label=" << (o.label.empty() ? o.bag_path : o.label)
             << " true_ends=" << ev.true_ends << " reported=" << share(ev.reported, ev.end_cycles)

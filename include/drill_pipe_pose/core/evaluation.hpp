@@ -93,6 +93,19 @@ struct ReportedEnd {
   EndLabel label = EndLabel::kBoxEnd;
   uint32_t id = 0;  ///< instance id
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();  ///< [m] world
+  std::string type;  ///< its published pipe type ("": none)
+  std::vector<std::string> type_names;  ///< every candidate type...
+  std::vector<double> type_probabilities;  ///< ...and its probability
+};
+
+/// The types reported on one true end (InstanceEvaluation::types).
+struct TrueEndTypes {
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();  ///< [m] its last true origin
+  size_t reports = 0;                                  ///< reports with a type
+  std::map<std::string, size_t> top;           ///< reports per published type
+  std::map<std::string, double> probability;   ///< summed probability per type
+  /// Per type: its least probability in a report that published another.
+  std::map<std::string, double> least_not_top;
 };
 
 /// The true ends at each capture stamp, per label, in the simulator's (stable) order.
@@ -115,6 +128,7 @@ struct InstanceEvaluation {
   /// The first few stray reports with their distance [m] to their label's nearest true end.
   std::vector<std::pair<ReportedEnd, double>> stray_examples;
   std::map<uint32_t, std::set<std::pair<int, size_t>>> id_truth;  ///< id -> (label, true end)
+  std::map<std::pair<int, size_t>, TrueEndTypes> types;  ///< per true end, its reports' types
 };
 
 /// Every report matched to the nearest true end of its label at the cycle's stamp (the latest
