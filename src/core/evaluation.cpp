@@ -179,6 +179,19 @@ void printEvaluation(const std::array<EndEvaluation, kNumEnds>& evals, std::ostr
   out.unsetf(std::ios::fixed);
 }
 
+void TypeTally::add(const std::string& type, const std::vector<std::string>& names,
+                    const std::vector<double>& probabilities) {
+  ++reports;
+  ++top[type];
+  for (size_t k = 0; k < names.size() && k < probabilities.size(); ++k) {
+    probability[names[k]] += probabilities[k];
+    if (names[k] != type) {
+      auto [it, fresh] = least_not_top.emplace(names[k], probabilities[k]);
+      if (!fresh) it->second = std::min(it->second, probabilities[k]);
+    }
+  }
+}
+
 InstanceEvaluation evaluateInstances(const TrueEnds& truth, const std::vector<ReportedEnd>& reports,
                                      double match_distance, double near_distance) {
   InstanceEvaluation ev;
@@ -214,19 +227,7 @@ InstanceEvaluation evaluateInstances(const TrueEnds& truth, const std::vector<Re
         ++ev.per_end[{l, j}].second;
         TrueEndTypes& ty = ev.types[{l, j}];
         ty.position = (*t)[j];
-        if (!best->type.empty()) {
-          ++ty.reports;
-          ++ty.top[best->type];
-          for (size_t k = 0; k < best->type_names.size() && k < best->type_probabilities.size();
-               ++k) {
-            ty.probability[best->type_names[k]] += best->type_probabilities[k];
-            if (best->type_names[k] != best->type) {
-              auto [it, fresh] =
-                  ty.least_not_top.emplace(best->type_names[k], best->type_probabilities[k]);
-              if (!fresh) it->second = std::min(it->second, best->type_probabilities[k]);
-            }
-          }
-        }
+        if (!best->type.empty()) ty.add(best->type, best->type_names, best->type_probabilities);
         ev.id_truth[best->id].insert({l, j});
         auto it = last.find({l, j});
         if (it != last.end() && it->second.second + 1 == cycle) {

@@ -233,14 +233,9 @@ struct Tally {
   std::map<std::string, bool> drift_state;
   /// Per camera, the largest |shift along the ray| [m] and rotation [deg] it reached.
   std::map<std::string, std::pair<double, double>> drift_max;
-  /// Per end: valid cycles per published type, and per type name the sum of its probability;
+  /// Per end: the types its valid cycles published (TypeTally: `reports` counts those cycles);
   /// the last measured tool-joint OD and tube OD [m] and their numbers of measurements.
-  struct Types {
-    size_t valid = 0;
-    std::map<std::string, size_t> top;
-    std::map<std::string, double> probability;
-    /// Per type: its least probability in a cycle whose published type was another.
-    std::map<std::string, double> least_not_top;
+  struct Types : TypeTally {
     double od = 0.0, od_spread = 0.0, tube_od = 0.0;
     size_t tube_measurements = 0;
     size_t measurements = 0;
@@ -274,15 +269,7 @@ void tally(const CycleOutput& out, double ms, Tally* t) {
     const EndEstimate& est = out.result.ends[e];
     if (!est.valid || est.type.empty()) continue;
     Tally::Types& ty = t->types[e];
-    ++ty.valid;
-    ++ty.top[est.type];
-    for (size_t k = 0; k < est.type_names.size() && k < est.type_probabilities.size(); ++k) {
-      ty.probability[est.type_names[k]] += est.type_probabilities[k];
-      if (est.type_names[k] != est.type) {
-        auto [it, fresh] = ty.least_not_top.emplace(est.type_names[k], est.type_probabilities[k]);
-        if (!fresh) it->second = std::min(it->second, est.type_probabilities[k]);
-      }
-    }
+    ty.add(est.type, est.type_names, est.type_probabilities);
     if (est.type_measurements > 0) {
       ty.od = est.measured_od;
       ty.od_spread = est.measured_od_spread;
@@ -430,20 +417,20 @@ void report(const BenchOptions& o, const std::string& method, size_t n_cameras, 
   // of each candidate (one machine-readable TYPE line per end and type).
   for (int e = 0; e < kNumEnds; ++e) {
     const Tally::Types& ty = t.types[e];
-    if (!ty.valid) continue;
+    if (!ty.reports) continue;
     std::cout << std::fixed << "pipe type " << labelName(static_cast<EndLabel>(e)) << ": measured OD "
               << std::setprecision(1) << ty.od * 1e3 << " mm (spread " << ty.od_spread * 1e3
               << " mm, " << ty.measurements << " measurements), tube OD " << ty.tube_od * 1e3
               << " mm (" << ty.tube_measurements << " measurements);";
     for (const auto& [name, n] : ty.top)
-      std::cout << " " << name << " " << std::setprecision(1) << 100.0 * n / ty.valid << " %";
+      std::cout << " " << name << " " << std::setprecision(1) << 100.0 * n / ty.reports << " %";
     std::cout << "\n";
     for (const auto& [name, sum] : ty.probability) {
       const auto it = ty.top.find(name);
       std::cout << "TYPE label=" << label << " end=" << labelName(static_cast<EndLabel>(e))
                 << " type=" << name << std::setprecision(4)
-                << " top_share=" << (it == ty.top.end() ? 0.0 : 1.0 * it->second / ty.valid)
-                << " mean_probability=" << sum / ty.valid;
+                << " top_share=" << (it == ty.top.end() ? 0.0 : 1.0 * it->second / ty.reports)
+                << " mean_probability=" << sum / ty.reports;
       // 1 where the type was published in every valid cycle.
       const auto least = ty.least_not_top.find(name);
       std::cout << " least_probability_not_top="

@@ -98,14 +98,21 @@ struct ReportedEnd {
   std::vector<double> type_probabilities;  ///< ...and its probability
 };
 
-/// The types reported on one true end (InstanceEvaluation::types).
-struct TrueEndTypes {
-  Eigen::Vector3d position = Eigen::Vector3d::Zero();  ///< [m] its last true origin
-  size_t reports = 0;                                  ///< reports with a type
-  std::map<std::string, size_t> top;           ///< reports per published type
-  std::map<std::string, double> probability;   ///< summed probability per type
+/// The pipe types published over one end's reports.
+struct TypeTally {
+  size_t reports = 0;                         ///< reports with a type
+  std::map<std::string, size_t> top;          ///< reports per published type
+  std::map<std::string, double> probability;  ///< summed probability per type
   /// Per type: its least probability in a report that published another.
   std::map<std::string, double> least_not_top;
+  /// One report: its published type, and every candidate's name and probability.
+  void add(const std::string& type, const std::vector<std::string>& names,
+           const std::vector<double>& probabilities);
+};
+
+/// The types reported on one true end (InstanceEvaluation::types).
+struct TrueEndTypes : TypeTally {
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();  ///< [m] its last true origin
 };
 
 /// The true ends at each capture stamp, per label, in the simulator's (stable) order.

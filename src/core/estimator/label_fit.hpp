@@ -25,7 +25,7 @@ struct OtherEnd {
   int type = -1;
   TypeEvidence evidence;  ///< measured against that model
   RadiusMean measured;    ///< its searched joint radii (measureJointRadius), absolute
-  int searches = 0;       ///< fits since its searched radii were sure of its joint OD
+  int searches = 0;       ///< its track's decisions since its searched radii were sure
   int fits = 0;  ///< fits followed; published from instances.confirm_fits on
 };
 
