@@ -686,6 +686,49 @@ void typeOther(int l, const Candidate& cd, const std::vector<PipeCandidate>& can
   o->evidence.reset();
 }
 
+/// Other end `o` of label l, fitted (cd) with its type's models (`type_models`): its joint
+/// measured against them, its type examined (typeOther), and, unless withheld, its estimate
+/// added to result->others with its id, type and probabilities.
+void publishOther(int l, const Candidate& cd, const std::vector<const EndModels*>& type_models,
+                  const std::vector<PipeCandidate>& cands, RadiusModelCache* radius_models,
+                  const std::vector<CycleCamera>& cams, const EstimatorConfig& config,
+                  OtherEnd* o, CycleResult* result) {
+  // The models its fit used (its type's: set when it was created).
+  const EndModels& models = *type_models[static_cast<size_t>(o->type)];
+  if (config.typing.enabled) {
+    const RadiusCheck rc = radiusOffset(models.models[l], models.joint_radius[l], cd.fit.origin,
+                                        cd.fit.z, cd.pts, cd.eyes, cd.fit.inlier_mask);
+    if (rc.ok) o->evidence.joint.add(models.joint_radius[l] + rc.offset, rc.std);
+  }
+  // Not published with a model its searched radii make unlikely (as a primary end is not,
+  // classifyEnd), nor in the cycle it takes another type (fitted with the last one): a 4"
+  // NC46 single beside a 5" NC50 stump was published as 5" NC50 in its first 5 cycles
+  // (drill_floor, seeds 192-199).
+  const int fitted_type = o->type;
+  typeOther(l, cd, cands, config, radius_models, o);
+  if (o->type != fitted_type) return;
+  if (config.typing.enabled && o->measured.count() >= kMinSearched &&
+      jointOdProbability(radiusProbabilities({&o->measured}, cands, config.typing), cands,
+                         o->type) < 1.0 - config.typing.switch_probability)
+    return;
+  EndEstimate e;
+  fillEnd(l, cd, cams, config, &e, nullptr).addTo(&e, config);
+  e.instance_id = o->id;
+  e.type = cands[static_cast<size_t>(o->type)].name;
+  for (const PipeCandidate& c : cands) e.type_names.push_back(c.name);
+  // As a primary end's (classifyEnd): each joint OD as its searched radii say, the type
+  // within it as the evidence says.
+  e.type_probabilities = splitByJointOd(
+      o->measured.count() >= kMinSearched
+          ? radiusProbabilities({&o->measured}, cands, config.typing)
+          : std::vector<double>(cands.size(), 1.0 / static_cast<double>(cands.size())),
+      o->evidence.probabilities(cands, config.typing, o->type), cands);
+  e.measured_od = 2 * o->evidence.joint.mean();
+  e.measured_od_spread = 2 * o->evidence.joint.spread();
+  e.type_measurements = o->evidence.joint.count();
+  result->others.push_back(std::move(e));
+}
+
 /// Stage "other ends" (several pipes at once): each label's other fits (fitLabel) published in
 /// result->others with their own instance ids and their own type: a new end takes its label's
 /// type of this cycle's fits (`fit_types`), then its own (typeOther), whose models its fits use
@@ -770,40 +813,7 @@ void outputOthers(std::array<std::vector<OtherFit>, kNumEnds>* fits, EstimatorSt
                      config.tracking.max_gap, config.tracking.max_offset);
       if (o.fits < config.instances.confirm_fits) ++o.fits;
       if (o.fits < config.instances.confirm_fits) continue;
-      // The models its fit used (its type's: set when it was created).
-      const EndModels& models = *type_models[static_cast<size_t>(o.type)];
-      if (config.typing.enabled) {
-        const RadiusCheck rc = radiusOffset(models.models[l], models.joint_radius[l], cd.fit.origin,
-                                            cd.fit.z, cd.pts, cd.eyes, cd.fit.inlier_mask);
-        if (rc.ok) o.evidence.joint.add(models.joint_radius[l] + rc.offset, rc.std);
-      }
-      // Not published with a model its searched radii make unlikely (as a primary end is not,
-      // classifyEnd), nor in the cycle it takes another type (fitted with the last one): a 4"
-      // NC46 single beside a 5" NC50 stump was published as 5" NC50 in its first 5 cycles
-      // (drill_floor, seeds 192-199).
-      const int fitted_type = o.type;
-      typeOther(l, cd, cands, config, radius_models, &o);
-      if (o.type != fitted_type) continue;
-      if (config.typing.enabled && o.measured.count() >= kMinSearched &&
-          jointOdProbability(radiusProbabilities({&o.measured}, cands, config.typing), cands,
-                             o.type) < 1.0 - config.typing.switch_probability)
-        continue;
-      EndEstimate e;
-      fillEnd(l, cd, cams, config, &e, nullptr).addTo(&e, config);
-      e.instance_id = o.id;
-      e.type = cands[static_cast<size_t>(o.type)].name;
-      for (const PipeCandidate& c : cands) e.type_names.push_back(c.name);
-      // As a primary end's (classifyEnd): each joint OD as its searched radii say, the type
-      // within it as the evidence says.
-      e.type_probabilities = splitByJointOd(
-          o.measured.count() >= kMinSearched
-              ? radiusProbabilities({&o.measured}, cands, config.typing)
-              : std::vector<double>(cands.size(), 1.0 / static_cast<double>(cands.size())),
-          o.evidence.probabilities(cands, config.typing, o.type), cands);
-      e.measured_od = 2 * o.evidence.joint.mean();
-      e.measured_od_spread = 2 * o.evidence.joint.spread();
-      e.type_measurements = o.evidence.joint.count();
-      result->others.push_back(std::move(e));
+      publishOther(l, cd, type_models, cands, radius_models, cams, config, &o, result);
     }
     // An end without a fit this cycle keeps its track (and id) for tracking.max_gap: one cycle
     // of a dropped-out joint does not make it another end.
