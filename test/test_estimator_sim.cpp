@@ -489,7 +489,8 @@ TEST(EstimatorSim, AnOtherEndOfAnotherSizeIsPublishedWithItsOwnType) {
   const uint32_t seed = 91;
   auto simulator = makeSimulator("drill_floor", seed);
   EstimatorConfig cfg = configIn(*simulator);
-  resolvePipeTypes(&cfg, loadPipeCatalog(pipeCatalogPath(DRILL_PIPE_POSE_SOURCE_DIR)));
+  const PipeCatalog catalog = loadPipeCatalog(pipeCatalogPath(DRILL_PIPE_POSE_SOURCE_DIR));
+  resolvePipeTypes(&cfg, catalog);
   PoseEstimator est(cfg);
   const Eigen::Vector3d mousehole(4.694, 4.85, 0.6);  // config/scenes/drill_floor.yaml
   const double single_od = 0.1524;                    // 4in_NC46_6.0od
@@ -502,12 +503,7 @@ TEST(EstimatorSim, AnOtherEndOfAnotherSizeIsPublishedWithItsOwnType) {
       if ((e.T_world_end.translation() - mousehole).norm() > 0.1) continue;
       ++reports;
       ++types[e.type];
-      const auto& c = cfg.candidates;
-      const auto it = std::find_if(c.begin(), c.end(), [&](const PipeCandidate& p) {
-        return p.name == e.type;
-      });
-      ASSERT_NE(it, c.end()) << e.type;
-      if (k >= settled && std::abs(it->dims.tool_joint_od - single_od) > 0.007) {
+      if (k >= settled && std::abs(catalog.at(e.type).dims.tool_joint_od - single_od) > 0.007) {
         ++far_types;
         std::printf("seed %u cycle %d: the single published as %s\n", seed, k, e.type.c_str());
       }

@@ -487,6 +487,25 @@ int nextType(int slot, const Candidate& cd, const std::vector<PipeCandidate>& ca
 /// kept every other type's share right or better).
 constexpr size_t kMinSearched = 1;
 
+/// What an end publishes of its type: each joint OD's probability as its searched radii give it
+/// (`pm`; null before its first search, kMinSearched: every OD alike), split among that OD's
+/// types as its evidence's probabilities `p` do.
+std::vector<double> publishedProbabilities(const std::vector<double>* pm,
+                                           const std::vector<double>& p,
+                                           const std::vector<PipeCandidate>& cands) {
+  return splitByJointOd(
+      pm ? *pm : std::vector<double>(cands.size(), 1.0 / static_cast<double>(cands.size())), p,
+      cands);
+}
+
+/// Whether an end's searched radii (`pm`, null before its first search) make the joint OD of its
+/// type `type` unlikely (below 1 - typing.switch_probability): it is fitted with the wrong
+/// model, so its pose is not published until it has the type they say.
+bool searchedRadiiRuleOut(const std::vector<double>* pm, int type,
+                          const std::vector<PipeCandidate>& cands, const TypingConfig& tc) {
+  return tc.enabled && pm && jointOdProbability(*pm, cands, type) < 1.0 - tc.switch_probability;
+}
+
 /// Stage "pipe type" for end `slot` with its candidate `cd` (null: none this cycle): the
 /// tool-joint radius measured with the pose eliminated (radiusOffset, absolute: the model's
 /// radius plus the offset) joins the end's evidence on its track, whose probabilities the end
@@ -573,9 +592,8 @@ void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
   // the true type under 0.01 while the published one was another (catwalk, 4" NC46, seed 93).
   const bool searched = et->measured.count() >= kMinSearched;
   const std::vector<double> pm =
-      searched ? searchedProbabilities(*et, other, cands, config.typing)
-               : std::vector<double>(cands.size(), 1.0 / static_cast<double>(cands.size()));
-  e->type_probabilities = splitByJointOd(pm, p, cands);
+      searched ? searchedProbabilities(*et, other, cands, config.typing) : std::vector<double>();
+  e->type_probabilities = publishedProbabilities(searched ? &pm : nullptr, p, cands);
   e->measured_od = 2 * et->evidence.joint.mean();
   e->measured_od_spread = 2 * et->evidence.joint.spread();
   e->type_measurements = et->evidence.joint.count();
@@ -585,8 +603,7 @@ void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
   // its pose is biased, or lies on another joint (a 6-5/8" FH box end 8-1/4" OD, fitted with
   // the 5" NC50 model, on the pin end 1.5 m away: thesis_vertical, seed 92). Not published
   // until the end has the type its radius says.
-  if (config.typing.enabled && searched &&
-      jointOdProbability(pm, cands, et->type) < 1.0 - config.typing.switch_probability) {
+  if (searchedRadiiRuleOut(searched ? &pm : nullptr, et->type, cands, config.typing)) {
     std::ostringstream s;
     s.precision(4);
     s << "pipe type being measured: the joint's radius searches read " << 2e3 * et->measured.mean()
@@ -603,10 +620,11 @@ void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
 /// rejected in every cycle, both ends: thesis_vertical, seed 200). Its joint radius is searched
 /// for all the same, and the end takes another joint OD by nextType's rule (searchedType: that
 /// OD's type typing.switch_probability likely, or the current one below 1 - that); the other
-/// end, measured neither, takes the same type (shareConnectionType). Only while neither end has a measurement:
-/// a 3-1/2" NC38 box end that took its size this way while its pin end was still fitted with the
-/// 5" NC50 model, whose pin is about as thick as that joint, had its box detections fit the pin
-/// model, published as the pin end 1.5 m from it for 6 cycles (thesis_vertical, seed 200).
+/// end, measured neither, takes the same type (shareConnectionType). Only while neither end has
+/// a measurement: a 3-1/2" NC38 box end that took its size this way while its pin end was
+/// still fitted with the 5" NC50 model, whose pin is about as thick as that joint, had its box
+/// detections fit the pin model, published as the pin end 1.5 m from it for 6 cycles
+/// (thesis_vertical, seed 200).
 void measureRejectedEnd(int slot, const Candidate& cd, const std::vector<PipeCandidate>& cands,
                         const EstimatorConfig& config, RadiusModelCache* radius_models,
                         const EndType& other, EndType* et, EndPoseFilter* filter) {
@@ -707,22 +725,18 @@ void publishOther(int l, const Candidate& cd, const std::vector<const EndModels*
   const int fitted_type = o->type;
   typeOther(l, cd, cands, config, radius_models, o);
   if (o->type != fitted_type) return;
-  if (config.typing.enabled && o->measured.count() >= kMinSearched &&
-      jointOdProbability(radiusProbabilities({&o->measured}, cands, config.typing), cands,
-                         o->type) < 1.0 - config.typing.switch_probability)
-    return;
+  const bool searched = o->measured.count() >= kMinSearched;
+  const std::vector<double> pm = searched
+                                     ? radiusProbabilities({&o->measured}, cands, config.typing)
+                                     : std::vector<double>();
+  if (searchedRadiiRuleOut(searched ? &pm : nullptr, o->type, cands, config.typing)) return;
   EndEstimate e;
   fillEnd(l, cd, cams, config, &e, nullptr).addTo(&e, config);
   e.instance_id = o->id;
   e.type = cands[static_cast<size_t>(o->type)].name;
   for (const PipeCandidate& c : cands) e.type_names.push_back(c.name);
-  // As a primary end's (classifyEnd): each joint OD as its searched radii say, the type
-  // within it as the evidence says.
-  e.type_probabilities = splitByJointOd(
-      o->measured.count() >= kMinSearched
-          ? radiusProbabilities({&o->measured}, cands, config.typing)
-          : std::vector<double>(cands.size(), 1.0 / static_cast<double>(cands.size())),
-      o->evidence.probabilities(cands, config.typing, o->type), cands);
+  e.type_probabilities = publishedProbabilities(
+      searched ? &pm : nullptr, o->evidence.probabilities(cands, config.typing, o->type), cands);
   e.measured_od = 2 * o->evidence.joint.mean();
   e.measured_od_spread = 2 * o->evidence.joint.spread();
   e.type_measurements = o->evidence.joint.count();
