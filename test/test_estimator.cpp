@@ -814,6 +814,31 @@ TEST(Instances, AFitReversedAgainstADecidedInstanceIsThatInstanceFlipped) {
   EXPECT_EQ(reversedAgainst(flipped_at, x, memory, now, off), nullptr);
 }
 
+// A pipe's two ends, and a stand's pin end stabbed into a stump's box end, lie on one axis line
+// facing each other; the neighbour pipe's end 0.4 m across (catwalk_twin) does not.
+TEST(Instances, CoaxialEndsFaceEachOtherOnOneAxisLine) {
+  const Eigen::Vector3d x = Eigen::Vector3d::UnitX(), z = Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d box(2.2, 5.85, 1.09), pin(7.2, 5.85, 1.09);  // pipe_a, 5 m long
+  // The pipe's own ends, with 1 deg of axis error each (8.7 cm over 5 m each way).
+  const Eigen::Vector3d tilted = Eigen::AngleAxisd(M_PI / 180, z) * x;
+  EXPECT_TRUE(coaxialEnds(box, -x, pin, x, 0.15, 10.0));
+  EXPECT_TRUE(coaxialEnds(box, -tilted, pin, tilted, 0.15, 10.0));
+  EXPECT_TRUE(coaxialEnds(pin, x, box, -x, 0.15, 10.0));  // symmetric
+  // The stump's box end (z up) and the stand's pin end 0.36 m above it, 3 cm off the axis.
+  EXPECT_TRUE(coaxialEnds({4.694, 6.05, 0.8}, z, {4.724, 6.05, 1.164}, -z, 0.15, 10.0));
+  // The neighbour pipe's pin end, 0.4 m across; the same direction (two box ends in a row);
+  // at right angles; 20 deg apart (beyond max_angle_deg).
+  EXPECT_FALSE(coaxialEnds(box, -x, {7.2, 6.25, 1.09}, x, 0.15, 10.0));
+  EXPECT_FALSE(coaxialEnds(box, -x, pin, -x, 0.15, 10.0));
+  EXPECT_FALSE(coaxialEnds(box, -x, pin, z, 0.15, 10.0));
+  const Eigen::Vector3d twenty = Eigen::AngleAxisd(20 * M_PI / 180, z) * x;
+  EXPECT_FALSE(coaxialEnds(box, -x, box + 5 * twenty, twenty, 0.15, 10.0));
+  // Degenerate input: no axis, a negative or NaN reach.
+  EXPECT_FALSE(coaxialEnds(box, Eigen::Vector3d::Zero(), pin, x, 0.15, 10.0));
+  EXPECT_FALSE(coaxialEnds(box, -x, pin, x, -1.0, 10.0));
+  EXPECT_FALSE(coaxialEnds(box, -x, pin, x, std::nan(""), 10.0));
+}
+
 TEST(Instances, ScatteredRadiiRuleNoSizeOutUntilTheDifferenceIsClear) {
   const EstimatorConfig::Instances ic;  // 3 decisions, radius_difference 2.5 mm
   const Eigen::Vector3d a(1, 1, 1), b(2, 1, 1);

@@ -25,7 +25,7 @@ struct OtherEnd {
   int type = -1;
   TypeEvidence evidence;  ///< measured against that model
   RadiusMean measured;    ///< its searched joint radii (measureJointRadius), absolute
-  int searches = 0;       ///< its track's decisions since its searched radii were sure
+  int decisions = 0;      ///< decisions since the radius search's count was reached (searchDue)
   int fits = 0;  ///< fits followed; published from instances.confirm_fits on
 };
 

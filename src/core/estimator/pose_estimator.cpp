@@ -35,7 +35,7 @@ struct EndType {
   /// The joint radii searched for at the track's decisions (measureJointRadius): absolute, so
   /// they hold across type changes.
   RadiusMean measured;
-  int decisions = 0;  ///< decisions since the radius search's count was reached
+  int decisions = 0;  ///< decisions since the radius search's count was reached (searchDue)
   int64_t last_valid_ns = 0;  ///< capture stamp of the end's last valid cycle
   uint32_t id = 0;            ///< the end's instance id (0: no track)
   Eigen::Vector3d last_origin = Eigen::Vector3d::Zero();  ///< [m] of its last valid fit
@@ -395,19 +395,19 @@ void outputEnd(int slot, const Candidate* cd, const std::array<Candidate, kNumEn
   sup.addTo(&e, config);
 }
 
-/// The probability of each candidate on end `et`'s searched radii. A connection is made up
-/// within one type: while an end's own radii are not sure of a joint OD
-/// (typing.switch_probability), the other end's count too. A pin end lying on the catwalk reads
-/// its radius 65-100 mm for a true 84 mm, its box end 81-85 mm (seed 92); two pipes of two sizes
-/// each read their own.
-std::vector<double> searchedProbabilities(const EndType& et, const EndType& other,
+/// The probability of each candidate on an end's searched radii `own_radii`. A connection is made
+/// up within one type, and a pipe's two ends are one type: while an end's own radii are not
+/// sure of a joint OD (typing.switch_probability), its partner's (pairedRadii, coaxialPartner)
+/// count too. A pin end lying on the catwalk reads its radius 65-100 mm for a true 84 mm, its
+/// box end 81-85 mm (seed 92); two pipes of two sizes each read their own.
+std::vector<double> searchedProbabilities(const RadiusMean& own_radii, const RadiusMean* partner,
                                           const std::vector<PipeCandidate>& cands,
                                           const TypingConfig& tc) {
-  const std::vector<double> own = radiusProbabilities({&et.measured}, cands, tc);
-  if (other.measured.count() < static_cast<size_t>(std::max(1, tc.min_measurements)) ||
+  const std::vector<double> own = radiusProbabilities({&own_radii}, cands, tc);
+  if (!partner || partner->count() < static_cast<size_t>(std::max(1, tc.min_measurements)) ||
       jointOdProbability(own, cands, topType(own)) >= tc.switch_probability)
     return own;
-  return radiusProbabilities({&et.measured, &other.measured}, cands, tc);
+  return radiusProbabilities({&own_radii, partner}, cands, tc);
 }
 
 /// The joint radius of an end of label `slot` fitted (cd) with type `type`, searched for
@@ -462,7 +462,7 @@ int searchedType(const std::vector<double>& pm, const std::vector<PipeCandidate>
 /// unlikely. Among the types that share the current joint OD, the tube's evidence decides in
 /// the same way.
 int nextType(int slot, const Candidate& cd, const std::vector<PipeCandidate>& cands,
-             const std::vector<double>& p, const EndType& other, EndType* et_out,
+             const std::vector<double>& p, const RadiusMean* partner, EndType* et_out,
              const EstimatorConfig& config, RadiusModelCache* radius_models) {
   EndType& et = *et_out;
   const double sp = config.typing.switch_probability;
@@ -471,7 +471,8 @@ int nextType(int slot, const Candidate& cd, const std::vector<PipeCandidate>& ca
     searchJointRadius(slot, cd, et.type, config, radius_models, &et.measured);
   if (et.measured.count() >= enough) {
     const int searched =
-        searchedType(searchedProbabilities(et, other, cands, config.typing), cands, et.type, sp);
+        searchedType(searchedProbabilities(et.measured, partner, cands, config.typing), cands,
+                     et.type, sp);
     if (searched != et.type) return searched;
   }
   const int top = topType(p);
@@ -517,7 +518,7 @@ bool searchedRadiiRuleOut(const std::vector<double>* pm, int type,
 void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
                  const std::vector<PipeCandidate>& cands, int64_t stamp_ns,
                  const EstimatorConfig& config, RadiusModelCache* radius_models,
-                 const std::array<LabelState, kNumEnds>& labels, const EndType& other,
+                 const std::array<LabelState, kNumEnds>& labels, const RadiusMean* partner,
                  EndType* et, EndPoseFilter* filter, uint32_t* next_id, EndEstimate* e) {
   if (!e->valid) {
     if (et->last_valid_ns > 0 &&
@@ -572,7 +573,7 @@ void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
   }
   std::vector<double> p = et->evidence.probabilities(cands, config.typing, et->type);
   if (config.typing.enabled && cd && !cd->tracked && et->evidence.joint.count() > 0) {
-    const int next = nextType(slot, *cd, cands, p, other, et, config, radius_models);
+    const int next = nextType(slot, *cd, cands, p, partner, et, config, radius_models);
     if (next != et->type) {
       et->type = next;
       filter->reset();
@@ -592,7 +593,8 @@ void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
   // the true type under 0.01 while the published one was another (catwalk, 4" NC46, seed 93).
   const bool searched = et->measured.count() >= kMinSearched;
   const std::vector<double> pm =
-      searched ? searchedProbabilities(*et, other, cands, config.typing) : std::vector<double>();
+      searched ? searchedProbabilities(et->measured, partner, cands, config.typing)
+               : std::vector<double>();
   e->type_probabilities = publishedProbabilities(searched ? &pm : nullptr, p, cands);
   e->measured_od = 2 * et->evidence.joint.mean();
   e->measured_od_spread = 2 * et->evidence.joint.spread();
@@ -634,8 +636,9 @@ void measureRejectedEnd(int slot, const Candidate& cd, const std::vector<PipeCan
     return;
   searchJointRadius(slot, cd, et->type, config, radius_models, &et->measured);
   if (et->measured.count() < kMinSearched) return;
-  const int next = searchedType(searchedProbabilities(*et, other, cands, config.typing), cands,
-                                et->type, config.typing.switch_probability);
+  const int next =
+      searchedType(searchedProbabilities(et->measured, &other.measured, cands, config.typing),
+                   cands, et->type, config.typing.switch_probability);
   if (next == et->type) return;
   et->type = next;
   filter->reset();
@@ -689,19 +692,58 @@ void continueKnownEnd(int l, const Eigen::Vector3d& origin, int64_t stamp_ns,
 /// doubled the scene's median cycle time, 7.6 to 15.1 ms: the single's radii, 6.4 mm from the
 /// 4-1/2" NC46's, are seldom sure.)
 void typeOther(int l, const Candidate& cd, const std::vector<PipeCandidate>& cands,
-               const EstimatorConfig& config, RadiusModelCache* radius_models, OtherEnd* o) {
+               const EstimatorConfig& config, RadiusModelCache* radius_models,
+               const RadiusMean* partner, OtherEnd* o) {
   if (!config.typing.enabled || cands.size() < 2) return;
   const size_t enough = static_cast<size_t>(std::max(1, config.typing.min_measurements));
   if (o->measured.count() < enough ||
-      (!cd.tracked && searchDue(o->measured, o->type, cands, config.typing, &o->searches)))
+      (!cd.tracked && searchDue(o->measured, o->type, cands, config.typing, &o->decisions)))
     searchJointRadius(l, cd, o->type, config, radius_models, &o->measured);
   if (o->measured.count() < enough) return;
   const int next =
-      searchedType(radiusProbabilities({&o->measured}, cands, config.typing), cands, o->type,
-                   config.typing.switch_probability);
+      searchedType(searchedProbabilities(o->measured, partner, cands, config.typing), cands,
+                   o->type, config.typing.switch_probability);
   if (next == o->type) return;
   o->type = next;
   o->evidence.reset();
+}
+
+/// The searched radii of the end of the other label on the axis line of label l's end `track`
+/// (coaxialEnds): the nearest of the other label's primary end and its other ends with a fit
+/// within tracking.max_gap (this cycle's too); null when none is. (On its own radii, the lying
+/// pin end of catwalk_twin's pipe that was not the primary pair gave its true type 0.20-0.39
+/// on average, seeds 192-199 and 202-205; with its box end's, 0.43-0.74.)
+const RadiusMean* coaxialPartner(int l, const Track& track, const EstimatorState& state,
+                                 int64_t stamp_ns, const EstimatorConfig& config) {
+  // [m] and [deg]: two 5" NC50 pipes 0.4 m apart on the catwalk are not paired unless an axis
+  // is 2.9 deg off over their 5 m (catwalk_twin); a joint's own radius is 60-105 mm.
+  constexpr double kReach = 0.15, kMaxAngleDeg = 10.0;
+  const int o = 1 - l;
+  const RadiusMean* best = nullptr;
+  double nearest = std::numeric_limits<double>::infinity();
+  const auto consider = [&](const Track& tr, const RadiusMean& radii) {
+    const double gap = tr.gap(stamp_ns);  // 0 for an end fitted earlier in this cycle
+    if (tr.stamp_ns <= 0 || !(gap >= 0 && gap <= config.tracking.max_gap) ||
+        !coaxialEnds(track.origin, track.z, tr.origin, tr.z, kReach, kMaxAngleDeg))
+      return;
+    const double d = (tr.origin - track.origin).norm();
+    if (d < nearest) nearest = d, best = &radii;
+  };
+  consider(state.labels[o].track, state.types[o].measured);
+  for (const OtherEnd& e : state.labels[o].others) consider(e.track, e.measured);
+  return best;
+}
+
+/// The searched radii that primary end `slot` counts while its own are unsure
+/// (searchedProbabilities): the end's on its axis line (coaxialPartner), else the other primary
+/// end's. (The primary pair of two pipes side by side may be one pipe's box end and the other's
+/// pin end: which pipe is primary is not in the data. On catwalk_twin seeds 192-199 and 202-205
+/// the published types and probabilities were the same either way.)
+const RadiusMean* pairedRadii(int slot, const EstimatorState& state, int64_t stamp_ns,
+                              const EstimatorConfig& config) {
+  const RadiusMean* coaxial =
+      coaxialPartner(slot, state.labels[slot].track, state, stamp_ns, config);
+  return coaxial ? coaxial : &state.types[1 - slot].measured;
 }
 
 /// Other end `o` of label l, fitted (cd) with its type's models (`type_models`): its joint
@@ -710,7 +752,7 @@ void typeOther(int l, const Candidate& cd, const std::vector<PipeCandidate>& can
 void publishOther(int l, const Candidate& cd, const std::vector<const EndModels*>& type_models,
                   const std::vector<PipeCandidate>& cands, RadiusModelCache* radius_models,
                   const std::vector<CycleCamera>& cams, const EstimatorConfig& config,
-                  OtherEnd* o, CycleResult* result) {
+                  const RadiusMean* partner, OtherEnd* o, CycleResult* result) {
   // The models its fit used (its type's: set when it was created).
   const EndModels& models = *type_models[static_cast<size_t>(o->type)];
   if (config.typing.enabled) {
@@ -723,12 +765,12 @@ void publishOther(int l, const Candidate& cd, const std::vector<const EndModels*
   // NC46 single beside a 5" NC50 stump was published as 5" NC50 in its first 5 cycles
   // (drill_floor, seeds 192-199).
   const int fitted_type = o->type;
-  typeOther(l, cd, cands, config, radius_models, o);
+  typeOther(l, cd, cands, config, radius_models, partner, o);
   if (o->type != fitted_type) return;
   const bool searched = o->measured.count() >= kMinSearched;
-  const std::vector<double> pm = searched
-                                     ? radiusProbabilities({&o->measured}, cands, config.typing)
-                                     : std::vector<double>();
+  const std::vector<double> pm =
+      searched ? searchedProbabilities(o->measured, partner, cands, config.typing)
+               : std::vector<double>();
   if (searchedRadiiRuleOut(searched ? &pm : nullptr, o->type, cands, config.typing)) return;
   EndEstimate e;
   fillEnd(l, cd, cams, config, &e, nullptr).addTo(&e, config);
@@ -827,7 +869,8 @@ void outputOthers(std::array<std::vector<OtherFit>, kNumEnds>* fits, EstimatorSt
                      config.tracking.max_gap, config.tracking.max_offset);
       if (o.fits < config.instances.confirm_fits) ++o.fits;
       if (o.fits < config.instances.confirm_fits) continue;
-      publishOther(l, cd, type_models, cands, radius_models, cams, config, &o, result);
+      publishOther(l, cd, type_models, cands, radius_models, cams, config,
+                   coaxialPartner(l, o.track, *state, stamp_ns, config), &o, result);
     }
     // An end without a fit this cycle keeps its track (and id) for tracking.max_gap: one cycle
     // of a dropped-out joint does not make it another end.
@@ -1050,7 +1093,8 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
                          state.types[1 - slot], &state.types[slot], &state.filters[slot]);
     outputEnd(slot, cd, cand, cams, stamp_ns, &state.filters[slot], config_, &result);
     classifyEnd(slot, cd, models, impl_->candidates, stamp_ns, config_,
-                &impl_->radius_models, state.labels, state.types[1 - slot], &state.types[slot],
+                &impl_->radius_models, state.labels, pairedRadii(slot, state, stamp_ns, config_),
+                &state.types[slot],
                 &state.filters[slot],
                 &state.next_id, &result.ends[slot]);
   }

@@ -69,6 +69,13 @@ const InstanceMemory* reversedAgainst(const Eigen::Vector3d& origin, const Eigen
                                       const std::vector<InstanceMemory>& memory,
                                       int64_t stamp_ns, const EstimatorConfig::Instances& config);
 
+/// Whether two ends lie on one axis line: their axes antiparallel within max_angle_deg (a
+/// pipe's two ends, and a box end and the pin end stabbed into it, face each other), and each
+/// origin within `reach` [m] of the line through the other along their mean axis.
+bool coaxialEnds(const Eigen::Vector3d& a_origin, const Eigen::Vector3d& a_z,
+                 const Eigen::Vector3d& b_origin, const Eigen::Vector3d& b_z, double reach,
+                 double max_angle_deg);
+
 /// One instance decided this cycle, for chooseInstance.
 struct InstanceFit {
   bool competes = false;  ///< a valid fit that may be the label's end (the caller decides)
