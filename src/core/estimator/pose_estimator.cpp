@@ -35,7 +35,7 @@ struct EndType {
   /// The joint radii searched for at the track's decisions (measureJointRadius): absolute, so
   /// they hold across type changes.
   RadiusMean measured;
-  int decisions = 0;  ///< decisions since the radius search's count was reached (searchDue)
+  int decisions = 0;  ///< its decisions since its searched radii were sure (searchDue)
   int64_t last_valid_ns = 0;  ///< capture stamp of the end's last valid cycle
   uint32_t id = 0;            ///< the end's instance id (0: no track)
   Eigen::Vector3d last_origin = Eigen::Vector3d::Zero();  ///< [m] of its last valid fit

@@ -37,8 +37,8 @@ struct Track {
 
   /// [s] from the last valid fit to a cycle stamped stamp_ns (negative: backwards in time).
   double gap(int64_t stamp_ns) const { return static_cast<double>(stamp_ns - this->stamp_ns) * 1e-9; }
-  /// The label had a valid fit (the track may have ended since) less than max_gap [s] before
-  /// stamp_ns, and not after it.
+  /// The label had a valid fit (the track may have ended since) before stamp_ns, at most
+  /// max_gap [s] before it: the gap in (0, max_gap] (a fit of this very cycle is not recent).
   bool recent(int64_t stamp_ns, double max_gap) const;
   /// The track is alive and continues into a cycle stamped stamp_ns: valid, and the gap in
   /// (0, max_gap] [s].
