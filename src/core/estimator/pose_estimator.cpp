@@ -12,6 +12,7 @@
 #include <future>
 #include <limits>
 #include <map>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -488,10 +489,20 @@ int nextType(int slot, const Candidate& cd, const std::vector<PipeCandidate>& ca
 /// kept every other type's share right or better).
 constexpr size_t kMinSearched = 1;
 
+/// An end's searched probabilities (searchedProbabilities), or none before its first search
+/// (kMinSearched).
+std::optional<std::vector<double>> searchedOnce(const RadiusMean& own_radii,
+                                                const RadiusMean* partner,
+                                                const std::vector<PipeCandidate>& cands,
+                                                const TypingConfig& tc) {
+  if (own_radii.count() < kMinSearched) return std::nullopt;
+  return searchedProbabilities(own_radii, partner, cands, tc);
+}
+
 /// What an end publishes of its type: each joint OD's probability as its searched radii give it
-/// (`pm`; null before its first search, kMinSearched: every OD alike), split among that OD's
-/// types as its evidence's probabilities `p` do.
-std::vector<double> publishedProbabilities(const std::vector<double>* pm,
+/// (`pm`; none before its first search: every OD alike), split among that OD's types as its
+/// evidence's probabilities `p` do.
+std::vector<double> publishedProbabilities(const std::optional<std::vector<double>>& pm,
                                            const std::vector<double>& p,
                                            const std::vector<PipeCandidate>& cands) {
   return splitByJointOd(
@@ -499,10 +510,10 @@ std::vector<double> publishedProbabilities(const std::vector<double>* pm,
       cands);
 }
 
-/// Whether an end's searched radii (`pm`, null before its first search) make the joint OD of its
+/// Whether an end's searched radii (`pm`, none before its first search) make the joint OD of its
 /// type `type` unlikely (below 1 - typing.switch_probability): it is fitted with the wrong
 /// model, so its pose is not published until it has the type they say.
-bool searchedRadiiRuleOut(const std::vector<double>* pm, int type,
+bool searchedRadiiRuleOut(const std::optional<std::vector<double>>& pm, int type,
                           const std::vector<PipeCandidate>& cands, const TypingConfig& tc) {
   return tc.enabled && pm && jointOdProbability(*pm, cands, type) < 1.0 - tc.switch_probability;
 }
@@ -591,11 +602,8 @@ void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
   // average (seed 93). Before its first search (a track whose end changed goes on to its next
   // decision with its evidence restarted) every joint OD is as likely: the evidence alone gave
   // the true type under 0.01 while the published one was another (catwalk, 4" NC46, seed 93).
-  const bool searched = et->measured.count() >= kMinSearched;
-  const std::vector<double> pm =
-      searched ? searchedProbabilities(et->measured, partner, cands, config.typing)
-               : std::vector<double>();
-  e->type_probabilities = publishedProbabilities(searched ? &pm : nullptr, p, cands);
+  const auto pm = searchedOnce(et->measured, partner, cands, config.typing);
+  e->type_probabilities = publishedProbabilities(pm, p, cands);
   e->measured_od = 2 * et->evidence.joint.mean();
   e->measured_od_spread = 2 * et->evidence.joint.spread();
   e->type_measurements = et->evidence.joint.count();
@@ -605,7 +613,7 @@ void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
   // its pose is biased, or lies on another joint (a 6-5/8" FH box end 8-1/4" OD, fitted with
   // the 5" NC50 model, on the pin end 1.5 m away: thesis_vertical, seed 92). Not published
   // until the end has the type its radius says.
-  if (searchedRadiiRuleOut(searched ? &pm : nullptr, et->type, cands, config.typing)) {
+  if (searchedRadiiRuleOut(pm, et->type, cands, config.typing)) {
     std::ostringstream s;
     s.precision(4);
     s << "pipe type being measured: the joint's radius searches read " << 2e3 * et->measured.mean()
@@ -722,8 +730,7 @@ const RadiusMean* coaxialPartner(int l, const Track& track, const EstimatorState
   const RadiusMean* best = nullptr;
   double nearest = std::numeric_limits<double>::infinity();
   const auto consider = [&](const Track& tr, const RadiusMean& radii) {
-    const double gap = tr.gap(stamp_ns);  // 0 for an end fitted earlier in this cycle
-    if (tr.stamp_ns <= 0 || !(gap >= 0 && gap <= config.tracking.max_gap) ||
+    if (!tr.fitWithin(stamp_ns, config.tracking.max_gap) ||
         !coaxialEnds(track.origin, track.z, tr.origin, tr.z, kReach, kMaxAngleDeg))
       return;
     const double d = (tr.origin - track.origin).norm();
@@ -767,18 +774,15 @@ void publishOther(int l, const Candidate& cd, const std::vector<const EndModels*
   const int fitted_type = o->type;
   typeOther(l, cd, cands, config, radius_models, partner, o);
   if (o->type != fitted_type) return;
-  const bool searched = o->measured.count() >= kMinSearched;
-  const std::vector<double> pm =
-      searched ? searchedProbabilities(o->measured, partner, cands, config.typing)
-               : std::vector<double>();
-  if (searchedRadiiRuleOut(searched ? &pm : nullptr, o->type, cands, config.typing)) return;
+  const auto pm = searchedOnce(o->measured, partner, cands, config.typing);
+  if (searchedRadiiRuleOut(pm, o->type, cands, config.typing)) return;
   EndEstimate e;
   fillEnd(l, cd, cams, config, &e, nullptr).addTo(&e, config);
   e.instance_id = o->id;
   e.type = cands[static_cast<size_t>(o->type)].name;
   for (const PipeCandidate& c : cands) e.type_names.push_back(c.name);
-  e.type_probabilities = publishedProbabilities(
-      searched ? &pm : nullptr, o->evidence.probabilities(cands, config.typing, o->type), cands);
+  e.type_probabilities =
+      publishedProbabilities(pm, o->evidence.probabilities(cands, config.typing, o->type), cands);
   e.measured_od = 2 * o->evidence.joint.mean();
   e.measured_od_spread = 2 * o->evidence.joint.spread();
   e.type_measurements = o->evidence.joint.count();

@@ -7,6 +7,11 @@ bool Track::recent(int64_t t, double max_gap) const {
   return stamp_ns > 0 && g > 0 && g <= max_gap;
 }
 
+bool Track::fitWithin(int64_t t, double max_gap) const {
+  const double g = gap(t);
+  return stamp_ns > 0 && g >= 0 && g <= max_gap;
+}
+
 bool Track::continues(int64_t t, double max_gap) const {
   const double g = gap(t);
   return valid && g > 0 && g <= max_gap;

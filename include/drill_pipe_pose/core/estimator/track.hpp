@@ -40,6 +40,8 @@ struct Track {
   /// The label had a valid fit (the track may have ended since) before stamp_ns, at most
   /// max_gap [s] before it: the gap in (0, max_gap] (a fit of this very cycle is not recent).
   bool recent(int64_t stamp_ns, double max_gap) const;
+  /// As recent, a fit of this very cycle included: the gap in [0, max_gap] [s].
+  bool fitWithin(int64_t stamp_ns, double max_gap) const;
   /// The track is alive and continues into a cycle stamped stamp_ns: valid, and the gap in
   /// (0, max_gap] [s].
   bool continues(int64_t stamp_ns, double max_gap) const;
