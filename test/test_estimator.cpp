@@ -839,6 +839,28 @@ TEST(Instances, CoaxialEndsFaceEachOtherOnOneAxisLine) {
   EXPECT_FALSE(coaxialEnds(box, -x, pin, x, std::nan(""), 10.0));
 }
 
+TEST(Instances, EndsOnOneJointFaceTheSameWayOnOneAxisLine) {
+  const Eigen::Vector3d z = Eigen::Vector3d::UnitZ(), x = Eigen::Vector3d::UnitX();
+  // thesis_vertical, seed 200, 3-1/2" NC38 4-3/4" OD: the box end and the pin model fitted to
+  // its joint 0.124 m lower, 1.8 cm off its axis and 8.4 deg tilted.
+  const Eigen::Vector3d box(4.6936, 5.2975, 0.2225), on_box(4.7029, 5.2821, 0.0983);
+  const Eigen::Vector3d tilted = Eigen::AngleAxisd(8.4 * M_PI / 180, x) * z;
+  EXPECT_TRUE(endsOnOneJoint(box, z, on_box, tilted, 0.05, 0.5, 10.0));
+  EXPECT_TRUE(endsOnOneJoint(on_box, tilted, box, z, 0.05, 0.5, 10.0));  // symmetric
+  // The true pin end, 1.5 m away; a pin end stabbed into the box (facing it, at its face);
+  // the same joint more than `along` apart; off the axis line; 20 deg apart.
+  EXPECT_FALSE(endsOnOneJoint(box, z, {4.69, 6.79, 0.28}, z, 0.05, 0.5, 10.0));
+  EXPECT_FALSE(endsOnOneJoint(box, z, box + 0.01 * z, -z, 0.05, 0.5, 10.0));
+  EXPECT_FALSE(endsOnOneJoint(box, z, box - 0.6 * z, z, 0.05, 0.5, 10.0));
+  EXPECT_FALSE(endsOnOneJoint(box, z, box + 0.08 * x, z, 0.05, 0.5, 10.0));
+  const Eigen::Vector3d twenty = Eigen::AngleAxisd(20 * M_PI / 180, x) * z;
+  EXPECT_FALSE(endsOnOneJoint(box, z, box - 0.1 * z, twenty, 0.05, 0.5, 10.0));
+  // Degenerate input: no axis, a negative or NaN reach or length.
+  EXPECT_FALSE(endsOnOneJoint(box, Eigen::Vector3d::Zero(), on_box, z, 0.05, 0.5, 10.0));
+  EXPECT_FALSE(endsOnOneJoint(box, z, on_box, z, -1.0, 0.5, 10.0));
+  EXPECT_FALSE(endsOnOneJoint(box, z, on_box, z, 0.05, std::nan(""), 10.0));
+}
+
 TEST(Instances, ScatteredRadiiRuleNoSizeOutUntilTheDifferenceIsClear) {
   const EstimatorConfig::Instances ic;  // 3 decisions, radius_difference 2.5 mm
   const Eigen::Vector3d a(1, 1, 1), b(2, 1, 1);

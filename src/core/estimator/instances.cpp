@@ -258,6 +258,18 @@ bool coaxialEnds(const Eigen::Vector3d& a_origin, const Eigen::Vector3d& a_z,
   return (d - d.dot(axis) * axis).norm() <= reach;
 }
 
+bool endsOnOneJoint(const Eigen::Vector3d& a_origin, const Eigen::Vector3d& a_z,
+                    const Eigen::Vector3d& b_origin, const Eigen::Vector3d& b_z, double reach,
+                    double along, double max_angle_deg) {
+  const double an = a_z.norm(), bn = b_z.norm();
+  if (!(an > 0 && bn > 0) || !(reach >= 0) || !(along >= 0)) return false;
+  const Eigen::Vector3d a = a_z / an, b = b_z / bn;
+  if (!(a.dot(b) >= std::cos(max_angle_deg * M_PI / 180.0))) return false;
+  const Eigen::Vector3d axis = (a + b).normalized();
+  const Eigen::Vector3d d = b_origin - a_origin;
+  return std::abs(d.dot(axis)) < along && (d - d.dot(axis) * axis).norm() <= reach;
+}
+
 namespace {
 
 /// One candidate of the choice: a fit of this cycle (with its memory entry) or a remembered entry.

@@ -58,6 +58,10 @@ struct EstimatorState {
   uint32_t next_id = 1;                         ///< the next instance id
   std::unique_ptr<ThesisBaseline> baseline;     ///< with method thesis_baseline
   DriftWatch drift;                             ///< per camera (EstimatorConfig::Drift)
+  /// Per published end, its last valid pose and that cycle's stamp (0: none yet).
+  std::array<Eigen::Isometry3d, kNumEnds> last_pose{
+      {Eigen::Isometry3d::Identity(), Eigen::Isometry3d::Identity()}};
+  std::array<int64_t, kNumEnds> last_pose_ns{{0, 0}};
 };
 
 /// The pipe types an end may take: the resolved candidates, or the one type of config.dims.
@@ -992,6 +996,53 @@ void shareConnectionType(std::array<EndType, kNumEnds>* types,
   }
 }
 
+/// Stage "one joint, one end": a valid end and the other end's pose (this cycle's, or else
+/// its last valid one within tracking.max_gap: the node may still hold it) on one joint facing
+/// one way (endsOnOneJoint) cannot both be right: one label's model has fitted the other's joint.
+/// The end that left its own last valid pose (farther than instances.track_gate, or none within
+/// tracking.max_gap) is withheld, both ends when both or neither did; a withheld end's filter
+/// restarts. Then each valid end's pose is remembered. (A 3-1/2" NC38 box joint, fitted with the
+/// pin model by the box detections, was published as the pin end, 1.5 m from it, and held there
+/// for 6 cycles: thesis_vertical, seed 200, 4-3/4" OD joints, typing.wear 0.)
+void withholdEndsOnOneJoint(int64_t stamp_ns, const EstimatorConfig& config,
+                            EstimatorState* state, std::array<EndEstimate, kNumEnds>* ends) {
+  // [m] off the other's axis line (fits scatter by millimetres), [m] apart along it (a joint's
+  // tongs are 0.2-0.4 m long: config/pipe_catalog.yaml), [deg] parallel within (as coaxialEnds'
+  // antiparallel).
+  constexpr double kReach = 0.05, kAlong = 0.5, kMaxAngleDeg = 10.0;
+  const double max_gap = config.tracking.max_gap, gate = config.instances.track_gate;
+  const auto recent = [&](int slot) {
+    return state->last_pose_ns[slot] > 0 &&
+           static_cast<double>(stamp_ns - state->last_pose_ns[slot]) * 1e-9 <= max_gap;
+  };
+  std::array<bool, kNumEnds> clash{}, left{};
+  for (int slot = 0; slot < kNumEnds; ++slot) {
+    const EndEstimate& e = (*ends)[slot];
+    const EndEstimate& other = (*ends)[1 - slot];
+    if (!e.valid || !(other.valid || recent(1 - slot))) continue;
+    const Eigen::Isometry3d& o = other.valid ? other.T_world_end : state->last_pose[1 - slot];
+    const Eigen::Vector3d p = e.T_world_end.translation();
+    clash[slot] = endsOnOneJoint(p, e.T_world_end.linear().col(2), o.translation(),
+                                 o.linear().col(2), kReach, kAlong, kMaxAngleDeg);
+    left[slot] = !recent(slot) || (state->last_pose[slot].translation() - p).norm() > gate;
+  }
+  const bool both = left[0] == left[1];
+  for (int slot = 0; slot < kNumEnds; ++slot) {
+    EndEstimate& e = (*ends)[slot];
+    if (e.valid && (clash[0] || clash[1]) && (both || left[slot])) {
+      e.valid = false;
+      e.reason = std::string("lies on the ") + labelName(static_cast<EndLabel>(1 - slot)) +
+                 "'s joint, facing the same way: one joint cannot be both ends (one model "
+                 "fitted the other's joint)";
+      state->filters[slot].reset();
+    }
+    if (e.valid) {
+      state->last_pose[slot] = e.T_world_end;
+      state->last_pose_ns[slot] = stamp_ns;
+    }
+  }
+}
+
 }  // namespace
 
 PoseEstimator::PoseEstimator(const EstimatorConfig& config) : config_(config) {
@@ -1109,6 +1160,7 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
                 &state.filters[slot],
                 &state.next_id, &result.ends[slot]);
   }
+  withholdEndsOnOneJoint(stamp_ns, config_, &state, &result.ends);
   shareConnectionType(&state.types, &state.filters, config_.typing);
   outputOthers(&other_fits, &state, type_models, fit_types, impl_->candidates,
                &impl_->radius_models, cams, stamp_ns, config_, &result);

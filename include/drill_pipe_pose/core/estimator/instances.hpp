@@ -76,6 +76,14 @@ bool coaxialEnds(const Eigen::Vector3d& a_origin, const Eigen::Vector3d& a_z,
                  const Eigen::Vector3d& b_origin, const Eigen::Vector3d& b_z, double reach,
                  double max_angle_deg);
 
+/// Whether two ends lie on one joint facing one way: their axes parallel within max_angle_deg,
+/// each origin within `reach` [m] of the line through the other along their mean axis, and the
+/// origins less than `along` [m] apart along it. A box end and a pin end never do (a pin end
+/// stabbed into a box end faces it: coaxialEnds); one model fitted to the other's joint does.
+bool endsOnOneJoint(const Eigen::Vector3d& a_origin, const Eigen::Vector3d& a_z,
+                    const Eigen::Vector3d& b_origin, const Eigen::Vector3d& b_z, double reach,
+                    double along, double max_angle_deg);
+
 /// One instance decided this cycle, for chooseInstance.
 struct InstanceFit {
   bool competes = false;  ///< a valid fit that may be the label's end (the caller decides)
