@@ -50,7 +50,7 @@ TEST(PipeType, JointOdsTenMillimetresApartAreToldApart) {
       {kTypes[1], type("10mm_larger", 0.1683 + 0.01, 0.127)}, TypingConfig());
   EXPECT_LT(q[0], 0.01);  // the larger joint measured: the smaller one is out
   EXPECT_GT(q[0], 0.0);
-  // The smaller joint measured: a worn larger one stays possible (wear allowance), yet below.
+  // The smaller joint measured: the larger one stays possible (typing.systematic), yet below.
   const std::vector<double> w = measured(0.1683 / 2, 50).probabilities(
       {kTypes[1], type("10mm_larger", 0.1683 + 0.01, 0.127)}, TypingConfig());
   EXPECT_EQ(topType(w), 0);
@@ -78,13 +78,33 @@ TEST(PipeType, SameJointOdStaysAmbiguousUntilTheTubeIsSeen) {
   EXPECT_NEAR(o[0], o[1], 1e-9);
 }
 
-TEST(PipeType, AWornJointKeepsItsNominalType) {
-  // 3 mm under nominal OD: as likely as the nominal joint itself; the two 6-5/8" types, 6.5 mm
-  // under it, keep 8 % each (typing.systematic).
-  const std::vector<double> worn =
-      measured(0.1778 / 2 - 0.0015, 100).probabilities(kTypes, TypingConfig());
+TEST(PipeType, AWornJointKeepsItsNominalTypeWithTheWearAllowance) {
+  // With typing.wear at 1.5 mm (off by default), 3 mm under nominal OD is as likely as the
+  // nominal joint itself; the two 6-5/8" types, 6.5 mm under it, keep 8 % each
+  // (typing.systematic).
+  TypingConfig c;
+  c.wear = 0.0015;
+  const std::vector<double> worn = measured(0.1778 / 2 - 0.0015, 100).probabilities(kTypes, c);
   EXPECT_EQ(topType(worn), 2);
   EXPECT_GT(worn[2], 0.8);
+}
+
+TEST(PipeType, AJointReadOverItsRadiusIsNotPushedToTheNextLargerSize) {
+  // The searched radius reads joints at or over nominal (TypingConfig::wear): a 6-3/8" joint
+  // read 0.7 mm over its radius keeps the most probability by default. A wear allowance of
+  // 1.5 mm would make the 6-5/8" joint, 3.2 mm over it, about as likely.
+  const std::vector<PipeCandidate> three{type("4.5_NC46", 0.15875, 0.1143),
+                                         type("4.5_NC50", 0.16193, 0.1143),
+                                         type("5_NC50", 0.16828, 0.1270)};
+  const TypeEvidence e = measured(0.16193 / 2 + 0.0007, 100);
+  const std::vector<double> p = e.probabilities(three, TypingConfig());
+  EXPECT_EQ(topType(p), 1);
+  EXPECT_GT(p[1], 0.5);
+  TypingConfig worn;
+  worn.wear = 0.0015;
+  const std::vector<double> q = e.probabilities(three, worn);
+  EXPECT_LT(q[1], 0.45) << "the allowance takes the true type's probability below half";
+  EXPECT_GT(q[2], 0.3);
 }
 
 TEST(PipeType, ASharedBiasNeverMakesItConfident) {
