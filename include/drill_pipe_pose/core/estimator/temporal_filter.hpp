@@ -47,15 +47,17 @@ class EndPoseFilter {
   EstimatorConfig::Temporal config_;
   bool initialised_ = false;
   int64_t stamp_ns_ = 0;
-  Eigen::Matrix<double, 6, 1> x_;  ///< origin, velocity
-  Eigen::Matrix<double, 6, 6> P_;
-  Eigen::Vector3d axis_;
+  // Zero until the first measurement (initialised_): Eigen leaves a matrix uninitialised, and
+  // copying one (a filter restarts by assignment) read indeterminate values.
+  Eigen::Matrix<double, 6, 1> x_ = Eigen::Matrix<double, 6, 1>::Zero();  ///< origin, velocity
+  Eigen::Matrix<double, 6, 6> P_ = Eigen::Matrix<double, 6, 6>::Zero();
+  Eigen::Vector3d axis_ = Eigen::Vector3d::UnitZ();
   double axis_var_ = 0;  ///< [rad^2] per tilt direction
   // The measurements held outside the gate (the last of them), waiting for confirmation.
   int held_ = 0;
   int64_t held_stamp_ns_ = 0;
-  Eigen::Vector3d held_origin_, held_axis_;
-  Eigen::Matrix3d held_pos_cov_;
+  Eigen::Vector3d held_origin_ = Eigen::Vector3d::Zero(), held_axis_ = Eigen::Vector3d::UnitZ();
+  Eigen::Matrix3d held_pos_cov_ = Eigen::Matrix3d::Zero();
   double held_tilt_var_ = 0;
   double last_sigma_ = 0, last_tilt_ = 0, last_tilt_gate_ = 0;
 };
