@@ -41,8 +41,8 @@ ParamTable<C> generalRows() {
       P("typing/systematic", typing.systematic, "m", positive(),
         "error of the mean measured radius that averaging does not remove"),
       P("typing/wear", typing.wear, "m", atLeast(0),
-        "a radius up to this below a type's is as likely as its own (worn joints; 0: the "
-        "searched radius reads worn joints at or over nominal)"),
+        "a radius up to this below a type's is as likely as its own (worn joints; small: the "
+        "searched radius reads joints at or over nominal)"),
       P("typing/switch_probability", typing.switch_probability, "", between(0.5, 1),
         "a decision changes an end's type (and model) only this probable"),
       P("typing/min_measurements", typing.min_measurements, "", atLeast(1),
