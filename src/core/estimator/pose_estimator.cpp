@@ -1012,8 +1012,8 @@ void withholdEndsOnOneJoint(int64_t stamp_ns, const EstimatorConfig& config,
   constexpr double kReach = 0.05, kAlong = 0.5, kMaxAngleDeg = 10.0;
   const double max_gap = config.tracking.max_gap, gate = config.instances.track_gate;
   const auto recent = [&](int slot) {
-    return state->last_pose_ns[slot] > 0 &&
-           static_cast<double>(stamp_ns - state->last_pose_ns[slot]) * 1e-9 <= max_gap;
+    const double gap = static_cast<double>(stamp_ns - state->last_pose_ns[slot]) * 1e-9;
+    return state->last_pose_ns[slot] > 0 && gap >= 0 && gap <= max_gap;
   };
   std::array<bool, kNumEnds> clash{}, left{};
   for (int slot = 0; slot < kNumEnds; ++slot) {
@@ -1066,6 +1066,7 @@ void PoseEstimator::reset() {
     t.type = impl_->start;
   }
   s.drift.reset();
+  s.last_pose_ns = {{0, 0}};
 }
 
 CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
