@@ -522,17 +522,6 @@ bool searchedRadiiRuleOut(const std::optional<std::vector<double>>& pm, int type
   return tc.enabled && pm && jointOdProbability(*pm, cands, type) < 1.0 - tc.switch_probability;
 }
 
-/// The tool-joint OD an end publishes as measured: its searched radii's mean (`searched`, the
-/// radius that explains the points), or before its first search the per-cycle measurements
-/// against its own model (`against_model`), which read only part of the way from the model's
-/// radius to the joint's.
-void setMeasuredOd(const RadiusMean& searched, const RadiusMean& against_model, EndEstimate* e) {
-  const RadiusMean& m = searched.count() > 0 ? searched : against_model;
-  e->measured_od = 2 * m.mean();
-  e->measured_od_spread = 2 * m.spread();
-  e->type_measurements = m.count();
-}
-
 /// Stage "pipe type" for end `slot` with its candidate `cd` (null: none this cycle): the
 /// tool-joint radius measured with the pose eliminated (radiusOffset, absolute: the model's
 /// radius plus the offset) joins the end's evidence on its track, whose probabilities the end
@@ -619,7 +608,9 @@ void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
   // the true type under 0.01 while the published one was another (catwalk, 4" NC46, seed 93).
   const auto pm = searchedOnce(et->measured, partner, cands, config.typing);
   e->type_probabilities = publishedProbabilities(pm, p, cands);
-  setMeasuredOd(et->measured, et->evidence.joint, e);
+  e->measured_od = 2 * et->evidence.joint.mean();
+  e->measured_od_spread = 2 * et->evidence.joint.spread();
+  e->type_measurements = et->evidence.joint.count();
   e->measured_tube_od = 2 * et->evidence.tube.mean();
   e->tube_measurements = et->evidence.tube.count();
   // A joint whose searched radii say it is not its model's size is fitted with the wrong model:
@@ -796,7 +787,9 @@ void publishOther(int l, const Candidate& cd, const std::vector<const EndModels*
   for (const PipeCandidate& c : cands) e.type_names.push_back(c.name);
   e.type_probabilities =
       publishedProbabilities(pm, o->evidence.probabilities(cands, config.typing, o->type), cands);
-  setMeasuredOd(o->measured, o->evidence.joint, &e);
+  e.measured_od = 2 * o->evidence.joint.mean();
+  e.measured_od_spread = 2 * o->evidence.joint.spread();
+  e.type_measurements = o->evidence.joint.count();
   result->others.push_back(std::move(e));
 }
 
