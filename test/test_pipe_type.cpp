@@ -79,7 +79,7 @@ TEST(PipeType, SameJointOdStaysAmbiguousUntilTheTubeIsSeen) {
 }
 
 TEST(PipeType, AWornJointKeepsItsNominalTypeWithTheWearAllowance) {
-  // With typing.wear at 1.5 mm (off by default), 3 mm under nominal OD is as likely as the
+  // With typing.wear at 1.5 mm (0.5 mm by default), 3 mm under nominal OD is as likely as the
   // nominal joint itself; the two 6-5/8" types, 6.5 mm under it, keep 8 % each
   // (typing.systematic).
   TypingConfig c;

@@ -246,28 +246,39 @@ const InstanceMemory* reversedAgainst(const Eigen::Vector3d& origin, const Eigen
   return against;
 }
 
+namespace {
+
+/// Ends a and b on one axis line: their unit axes within max_angle_deg of parallel (`facing`
+/// false) or antiparallel (true), each origin within `reach` of the line through the other along
+/// their mean axis; *along gets the origins' distance along it. False on degenerate input.
+bool onOneAxisLine(const Eigen::Vector3d& a_origin, const Eigen::Vector3d& a_z,
+                   const Eigen::Vector3d& b_origin, const Eigen::Vector3d& b_z, bool facing,
+                   double reach, double max_angle_deg, double* along) {
+  const double an = a_z.norm(), bn = b_z.norm();
+  if (!(an > 0 && bn > 0) || !(reach >= 0)) return false;
+  const Eigen::Vector3d a = a_z / an, b = (facing ? -b_z : b_z) / bn;
+  if (!(a.dot(b) >= std::cos(max_angle_deg * M_PI / 180.0))) return false;
+  const Eigen::Vector3d axis = (a + b).normalized();
+  const Eigen::Vector3d d = b_origin - a_origin;
+  *along = std::abs(d.dot(axis));
+  return (d - d.dot(axis) * axis).norm() <= reach;
+}
+
+}  // namespace
+
 bool coaxialEnds(const Eigen::Vector3d& a_origin, const Eigen::Vector3d& a_z,
                  const Eigen::Vector3d& b_origin, const Eigen::Vector3d& b_z, double reach,
                  double max_angle_deg) {
-  const double an = a_z.norm(), bn = b_z.norm();
-  if (!(an > 0 && bn > 0) || !(reach >= 0)) return false;
-  const Eigen::Vector3d a = a_z / an, b = b_z / bn;
-  if (!(-a.dot(b) >= std::cos(max_angle_deg * M_PI / 180.0))) return false;
-  const Eigen::Vector3d axis = (a - b).normalized();
-  const Eigen::Vector3d d = b_origin - a_origin;
-  return (d - d.dot(axis) * axis).norm() <= reach;
+  double along = 0;
+  return onOneAxisLine(a_origin, a_z, b_origin, b_z, true, reach, max_angle_deg, &along);
 }
 
 bool endsOnOneJoint(const Eigen::Vector3d& a_origin, const Eigen::Vector3d& a_z,
                     const Eigen::Vector3d& b_origin, const Eigen::Vector3d& b_z, double reach,
                     double along, double max_angle_deg) {
-  const double an = a_z.norm(), bn = b_z.norm();
-  if (!(an > 0 && bn > 0) || !(reach >= 0) || !(along >= 0)) return false;
-  const Eigen::Vector3d a = a_z / an, b = b_z / bn;
-  if (!(a.dot(b) >= std::cos(max_angle_deg * M_PI / 180.0))) return false;
-  const Eigen::Vector3d axis = (a + b).normalized();
-  const Eigen::Vector3d d = b_origin - a_origin;
-  return std::abs(d.dot(axis)) < along && (d - d.dot(axis) * axis).norm() <= reach;
+  double apart = 0;
+  return onOneAxisLine(a_origin, a_z, b_origin, b_z, false, reach, max_angle_deg, &apart) &&
+         apart < along;
 }
 
 namespace {
