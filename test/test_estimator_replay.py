@@ -189,6 +189,8 @@ class EstimatorReplay(unittest.TestCase):
         for r in csv.DictReader(open(cycles_csv)):
             c = bench.setdefault(int(r["stamp_ns"]), {"cams": frozenset(r["cameras"].split("+"))})
             c[r["end"]] = (int(r["valid"]), [float(r[k]) for k in ("x", "y", "z", "qx", "qy", "qz", "qw")])
+            probs = dict(kv.rsplit(":", 1) for kv in r["probabilities"].split(";")) if r["probabilities"] else {}
+            c[r["end"] + " type"] = (r["type"], {k: float(v) for k, v in probs.items()})
         # Tracks, radius searches and per-track averages carry state from cycle to cycle, so the node
         # and the bench agree exactly only while they have fused the same frames. Compare every
         # cycle up to the first one the node fused differently, and say where that was. A frame
@@ -199,6 +201,7 @@ class EstimatorReplay(unittest.TestCase):
         for attempt in range(1, 4):
             del self.ends[:]
             del self.status[:]
+            del self.typed[:]
             # Quarter speed, so that the wall-clock max_wait never closes a cycle early; -d 1:
             # the subscriptions connect before the first frame.
             self.play(self.bag, extra=("-r", "0.25", "-d", "1"))
@@ -215,6 +218,7 @@ class EstimatorReplay(unittest.TestCase):
             if not early:
                 break
         node_ends = {m.header.stamp.to_nsec(): m for m in self.ends}
+        node_types = {m.header.stamp.to_nsec(): m for m in self.typed}
         compared, differ = 0, []
         for stamp in sorted(bench):
             if diverged_at is not None and stamp >= diverged_at:
@@ -239,6 +243,17 @@ class EstimatorReplay(unittest.TestCase):
                 angle = 4 * math.asin(min(1.0, math.dist(qn, [sign * b for b in qb]) / 2))
                 if dp > 1e-6 or angle > 1e-6:
                     differ.append(f"{stamp} {e.label}: {dp:.2e} m, {angle:.2e} rad apart")
+                # The pipe type and its probabilities (pipe_end_types' primary pair; the bench's
+                # --cycles-csv columns type and probabilities).
+                typed = node_types.get(stamp)
+                t = next((x for x in typed.ends[:2] if x.end.label == e.label), None) if typed else None
+                b_type, b_probs = b[e.label + " type"]
+                if t is None:
+                    differ.append(f"{stamp} {e.label}: no pipe_end_types end for this cycle")
+                elif t.type != b_type or set(t.candidates) != set(b_probs) or any(
+                        abs(p - b_probs[c]) > 1e-9 for c, p in zip(t.candidates, t.probabilities)):
+                    differ.append(f"{stamp} {e.label}: type node {t.type} {list(zip(t.candidates, t.probabilities))}"
+                                  f" bench {b_type} {b_probs}")
         print(f"node/bench: {compared} cycles compared (input diverged at: {diverged}) of {len(self.ends)} published "
               f"and {len(bench)} benched (seed {SEED})")
         sample_node = sorted((m.header.stamp.to_nsec(), sorted(node_cams.get(m.header.stamp.to_nsec(), [])))

@@ -112,7 +112,8 @@ BenchOptions parseArgs(int argc, char** argv) {
       ->check(CLI::Range(size_t{0}, size_t{1000000000}));
   app.add_option("--csv", o.csv_path, "write the per-estimate errors to this CSV file");
   app.add_option("--cycles-csv", o.cycles_csv_path,
-                 "write every cycle's published ends (stamp, cameras, valid, pose) to this CSV");
+                 "write every cycle's published ends (stamp, cameras, valid, pose, pipe type and "
+                 "its probabilities) to this CSV");
   app.add_option("--poses-bag", o.poses_bag_path,
                  "write every cycle's pipe_ends message (as the node publishes it, topic "
                  "/drill_pipe_pose/pipe_ends) to this bag");
@@ -310,7 +311,16 @@ void tally(const CycleOutput& out, double ms, Tally* t) {
       t->cycles_csv << s.stamp_ns << "," << cams << "," << labelName(s.label) << ","
                     << (p.valid ? 1 : 0) << "," << (p.fresh ? 1 : 0) << "," << o.x() << ","
                     << o.y() << "," << o.z() << "," << q.x() << "," << q.y() << "," << q.z()
-                    << "," << q.w() << "\n";
+                    << "," << q.w() << "," << p.estimate.type << ",";
+      // Each candidate's published probability, name:p joined by ';'.
+      const EndEstimate& pe = p.estimate;
+      double p_type = 0.0;
+      for (size_t k = 0; k < pe.type_names.size() && k < pe.type_probabilities.size(); ++k) {
+        if (pe.type_names[k] == pe.type) p_type = pe.type_probabilities[k];
+        t->cycles_csv << (k ? ";" : "") << pe.type_names[k] << ":" << pe.type_probabilities[k];
+      }
+      t->cycles_csv << "," << p_type << "," << 1e3 * pe.measured_od << ","
+                    << pe.type_measurements << "\n";
     }
   }
   ++t->cycles;
@@ -483,7 +493,8 @@ int main(int argc, char** argv) {
     if (!opt.cycles_csv_path.empty()) {
       t.cycles_csv.open(opt.cycles_csv_path);
       if (!t.cycles_csv) fail("cannot write '", opt.cycles_csv_path, "'");
-      t.cycles_csv << "stamp_ns,cameras,end,valid,fresh,x,y,z,qx,qy,qz,qw\n";
+      t.cycles_csv << "stamp_ns,cameras,end,valid,fresh,x,y,z,qx,qy,qz,qw,type,probabilities,"
+                      "type_probability,measured_od_mm,type_measurements\n";
       t.cycles_csv.precision(17);
     }
     rosbag::Bag poses_bag;
