@@ -320,7 +320,8 @@ void tally(const CycleOutput& out, double ms, Tally* t) {
         t->cycles_csv << (k ? ";" : "") << pe.type_names[k] << ":" << pe.type_probabilities[k];
       }
       t->cycles_csv << "," << p_type << "," << 1e3 * pe.measured_od << ","
-                    << pe.type_measurements << "\n";
+                    << pe.type_measurements << "," << 1e3 * pe.searched_od << "," << pe.searches
+                    << "\n";
     }
   }
   ++t->cycles;
@@ -494,7 +495,8 @@ int main(int argc, char** argv) {
       t.cycles_csv.open(opt.cycles_csv_path);
       if (!t.cycles_csv) fail("cannot write '", opt.cycles_csv_path, "'");
       t.cycles_csv << "stamp_ns,cameras,end,valid,fresh,x,y,z,qx,qy,qz,qw,type,probabilities,"
-                      "type_probability,measured_od_mm,type_measurements\n";
+                      "type_probability,measured_od_mm,type_measurements,searched_od_mm,"
+                      "searches\n";
       t.cycles_csv.precision(17);
     }
     rosbag::Bag poses_bag;

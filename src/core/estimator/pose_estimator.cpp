@@ -613,6 +613,8 @@ void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
   e->type_measurements = et->evidence.joint.count();
   e->measured_tube_od = 2 * et->evidence.tube.mean();
   e->tube_measurements = et->evidence.tube.count();
+  e->searched_od = 2 * et->measured.mean();
+  e->searches = et->measured.count();
   // A joint whose searched radii say it is not its model's size is fitted with the wrong model:
   // its pose is biased, or lies on another joint (a 6-5/8" FH box end 8-1/4" OD, fitted with
   // the 5" NC50 model, on the pin end 1.5 m away: thesis_vertical, seed 92). Not published
@@ -790,6 +792,8 @@ void publishOther(int l, const Candidate& cd, const std::vector<const EndModels*
   e.measured_od = 2 * o->evidence.joint.mean();
   e.measured_od_spread = 2 * o->evidence.joint.spread();
   e.type_measurements = o->evidence.joint.count();
+  e.searched_od = 2 * o->measured.mean();
+  e.searches = o->measured.count();
   result->others.push_back(std::move(e));
 }
 

@@ -64,6 +64,10 @@ struct EndEstimate {
   size_t type_measurements = 0;
   double measured_tube_od = 0.0;
   size_t tube_measurements = 0;
+  /// The joint OD [m] of the end's radius searches (refitted with models of other radii; what
+  /// decides its joint OD) averaged on its track, and their number (0: none yet).
+  double searched_od = 0.0;
+  size_t searches = 0;
 };
 
 struct CycleTiming {
