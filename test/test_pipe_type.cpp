@@ -124,6 +124,56 @@ TEST(PipeType, BadMeasurementsAreIgnored) {
   EXPECT_EQ(e.joint.count(), 0u);
 }
 
+TEST(SearchedRadii, ASearchFarOffItsMedianDoesNotPullTheMean) {
+  // The catwalk's lying pin end (seed 200): readings scattering about the 5" OD joint's radius,
+  // and now and then a search that ran to the end of its range (the catalogue's thinnest joint
+  // less 10 mm). A plain mean follows those; the searched radii leave them out.
+  const double truth = 0.127 / 2, wild = 0.1006 / 2;
+  SearchedRadii searched;
+  RadiusMean plain;
+  for (int i = 0; i < 20; ++i) {
+    const double r = (i % 5 == 4) ? wild : truth + 0.002 * std::sin(1.0 + i);
+    searched.add(r, 0.002);
+    plain.add(r, 0.002);
+  }
+  EXPECT_EQ(plain.count(), 20u);
+  EXPECT_EQ(searched.count(), 16u) << "the four wild searches left out";
+  EXPECT_EQ(searched.added(), 20u) << "yet counted as searches";
+  EXPECT_DOUBLE_EQ(searched.last(), wild);
+  EXPECT_NEAR(searched.mean(), truth, 0.001);
+  EXPECT_LT(plain.mean(), truth - 0.002) << "a plain mean follows them";
+  EXPECT_LT(searched.spread(), 0.5 * plain.spread());
+}
+
+TEST(SearchedRadii, FewSearchesAllCount) {
+  // The median absolute deviation of a few searches is no spread (drill_floor, seed 205: 155.1,
+  // 155.7 and 171.2 mm, the last one right): under ten, every search counts.
+  SearchedRadii s;
+  for (int i = 0; i < 6; ++i) s.add(0.07, 0.002);
+  s.add(0.0725, 0.002);
+  s.add(0.08, 0.002);
+  EXPECT_EQ(s.count(), 8u);
+  // Ten: equal readings have no deviation, so half the stated error is the floor: 2.5 mm off
+  // still counts (within 3 x 1 mm), 10 mm off does not.
+  s.add(0.07, 0.002);
+  s.add(0.07, 0.002);
+  EXPECT_EQ(s.count(), 9u);
+  EXPECT_EQ(s.added(), 10u);
+  // Bad readings are ignored, as by any RadiusMean.
+  s.add(std::nan(""), 0.002);
+  EXPECT_EQ(s.added(), 10u);
+}
+
+TEST(SearchedRadii, TheOldestSearchesRollOff) {
+  // A long track: its first searches (read while fitted with another size's model) go once
+  // kWindow later ones have come.
+  SearchedRadii searched;
+  for (size_t i = 0; i < SearchedRadii::kWindow; ++i) searched.add(0.084, 0.001);
+  for (size_t i = 0; i < SearchedRadii::kWindow; ++i) searched.add(0.0762, 0.001);
+  EXPECT_EQ(searched.count(), SearchedRadii::kWindow);
+  EXPECT_NEAR(searched.mean(), 0.0762, 1e-12);
+}
+
 namespace {
 /// One joint per catalogue OD class: 4-3/4", 6-1/4", 6-3/8", 6-5/8" (twice: two tubes), 7".
 const std::vector<PipeCandidate> kSizes{

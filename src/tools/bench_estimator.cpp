@@ -320,8 +320,9 @@ void tally(const CycleOutput& out, double ms, Tally* t) {
         t->cycles_csv << (k ? ";" : "") << pe.type_names[k] << ":" << pe.type_probabilities[k];
       }
       t->cycles_csv << "," << p_type << "," << 1e3 * pe.measured_od << ","
-                    << pe.type_measurements << "," << 1e3 * pe.searched_od << "," << pe.searches
-                    << "\n";
+                    << pe.type_measurements << "," << 1e3 * pe.searched_od << ","
+                    << pe.searches_counted << "," << pe.searches << ","
+                    << 1e3 * pe.last_search_od << "\n";
     }
   }
   ++t->cycles;
@@ -496,7 +497,7 @@ int main(int argc, char** argv) {
       if (!t.cycles_csv) fail("cannot write '", opt.cycles_csv_path, "'");
       t.cycles_csv << "stamp_ns,cameras,end,valid,fresh,x,y,z,qx,qy,qz,qw,type,probabilities,"
                       "type_probability,measured_od_mm,type_measurements,searched_od_mm,"
-                      "searches\n";
+                      "searches_counted,searches,last_search_od_mm\n";
       t.cycles_csv.precision(17);
     }
     rosbag::Bag poses_bag;

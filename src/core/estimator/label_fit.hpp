@@ -24,7 +24,7 @@ struct OtherEnd {
   /// fits use (CycleContext::type_models).
   int type = -1;
   TypeEvidence evidence;  ///< measured against that model
-  RadiusMean measured;    ///< its searched joint radii (measureJointRadius), absolute
+  SearchedRadii measured;  ///< its searched joint radii (measureJointRadius), absolute
   int decisions = 0;      ///< its decisions since its searched radii were sure (searchDue)
   int fits = 0;  ///< fits followed; published from instances.confirm_fits on
 };

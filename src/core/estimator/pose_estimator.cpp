@@ -35,7 +35,7 @@ struct EndType {
   TypeEvidence evidence;   ///< the measurements on the end's track (against its type's model)
   /// The joint radii searched for at the track's decisions (measureJointRadius): absolute, so
   /// they hold across type changes.
-  RadiusMean measured;
+  SearchedRadii measured;
   int decisions = 0;  ///< its decisions since its searched radii were sure (searchDue)
   int64_t last_valid_ns = 0;  ///< capture stamp of the end's last valid cycle
   uint32_t id = 0;            ///< the end's instance id (0: no track)
@@ -539,7 +539,7 @@ void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
     if (et->last_valid_ns > 0 &&
         static_cast<double>(stamp_ns - et->last_valid_ns) * 1e-9 > config.tracking.max_gap) {
       et->evidence.reset();
-      et->measured = RadiusMean();
+      et->measured = SearchedRadii();
       et->id = 0;
       et->handed_off = false;
     }
@@ -557,7 +557,7 @@ void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
     }
     et->id = 0;
     et->evidence.reset();
-    et->measured = RadiusMean();
+    et->measured = SearchedRadii();
   }
   et->handed_off = false;
   if (cd) et->last_origin = cd->fit.origin;
@@ -614,7 +614,9 @@ void classifyEnd(int slot, const Candidate* cd, const EndModels& models,
   e->measured_tube_od = 2 * et->evidence.tube.mean();
   e->tube_measurements = et->evidence.tube.count();
   e->searched_od = 2 * et->measured.mean();
-  e->searches = et->measured.count();
+  e->searches_counted = et->measured.count();
+  e->searches = et->measured.added();
+  e->last_search_od = 2 * et->measured.last();
   // A joint whose searched radii say it is not its model's size is fitted with the wrong model:
   // its pose is biased, or lies on another joint (a 6-5/8" FH box end 8-1/4" OD, fitted with
   // the 5" NC50 model, on the pin end 1.5 m away: thesis_vertical, seed 92). Not published
@@ -793,7 +795,9 @@ void publishOther(int l, const Candidate& cd, const std::vector<const EndModels*
   e.measured_od_spread = 2 * o->evidence.joint.spread();
   e.type_measurements = o->evidence.joint.count();
   e.searched_od = 2 * o->measured.mean();
-  e.searches = o->measured.count();
+  e.searches_counted = o->measured.count();
+  e.searches = o->measured.added();
+  e.last_search_od = 2 * o->measured.last();
   result->others.push_back(std::move(e));
 }
 

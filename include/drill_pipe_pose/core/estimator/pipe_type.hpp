@@ -13,13 +13,16 @@
 // and only among the types that share the current model's joint OD: measured against a model of
 // another size, a surface reads only part of the way to its own radius.
 // For that reason the joint OD is decided on searched radii (searchRadius): at the track's
-// decisions the end is refitted with models of other radii until one explains the points.
+// decisions the end is refitted with models of other radii until one explains the points. Their
+// mean is robust (SearchedRadii): the last 64 searches, less those far off their median.
 // Types whose joints the data cannot tell apart (4-1/2" NC50 and 5" NC50: both 6-5/8" OD) keep
 // equal probabilities: the top one is then ambiguous and published as such, never confidently.
 
 #include <cstddef>
+#include <deque>
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "drill_pipe_pose/core/tool_joint.hpp"
@@ -82,12 +85,18 @@ struct RadiusSearch {
 RadiusSearch searchRadius(const std::function<bool(double, double*, double*)>& offset_at,
                           double r0, double r_min, double r_max);
 
-/// Measurements of one radius on an end's track.
+/// Measurements of one radius on an end's track: every one of them, or with a window
+/// (SearchedRadii) the last `window` less those far off their median (add).
 class RadiusMean {
  public:
+  RadiusMean() = default;
   /// A radius measurement [m] (absolute) with its standard deviation [m].
   void add(double radius, double std);
+  /// The measurements the mean is over.
   size_t count() const { return n_; }
+  /// Every measurement added (finite), and the latest one [m] (0 without one).
+  size_t added() const { return added_; }
+  double last() const { return last_; }
   /// [m] the mean measured radius (0 without one).
   double mean() const { return n_ ? sum_ / static_cast<double>(n_) : 0.0; }
   /// [m] the measurements' scatter, at least their mean stated error.
@@ -95,9 +104,30 @@ class RadiusMean {
   /// Log-likelihood of a type whose radius is `radius` [m] (with the wear allowance `wear`).
   double logLikelihood(double radius, double wear, double systematic) const;
 
+ protected:
+  /// `window` > 0: over the last `window` measurements, robustly (add).
+  explicit RadiusMean(size_t window) : window_(window) {}
+
  private:
-  size_t n_ = 0;
+  size_t window_ = 0;
+  std::deque<std::pair<double, double>> recent_;  ///< with a window: (radius, std), oldest first
+  size_t added_ = 0;
+  double last_ = 0.0;
+  size_t n_ = 0;  ///< the sums below are over these measurements
   double sum_ = 0.0, sum2_ = 0.0, std_sum_ = 0.0;
+};
+
+/// An end's searched joint radii on its track (searchRadius): the last kWindow searches; once
+/// there are kMinToTrim of them, less those farther from their median than 3 times their robust
+/// spread (1.4826 times the median absolute deviation, at least half their mean stated error).
+/// A lying joint's searches now and then run to the end of the searched range or far off
+/// (catwalk, seed 200: a 3-1/2" NC38 5" OD pin end read 101 mm four times among readings of
+/// 117-138 mm), and a plain mean follows them.
+class SearchedRadii : public RadiusMean {
+ public:
+  /// A 10 s track searches up to about 45 times; on a long track the oldest searches roll off.
+  static constexpr size_t kWindow = 64;
+  SearchedRadii() : RadiusMean(kWindow) {}
 };
 
 /// One end's type evidence on its track: its tool joint's radius, and its tube's.

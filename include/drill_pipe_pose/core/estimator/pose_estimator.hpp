@@ -65,9 +65,12 @@ struct EndEstimate {
   double measured_tube_od = 0.0;
   size_t tube_measurements = 0;
   /// The joint OD [m] of the end's radius searches (refitted with models of other radii; what
-  /// decides its joint OD) averaged on its track, and their number (0: none yet).
+  /// decides its joint OD) averaged on its track (SearchedRadii: robustly), the searches that
+  /// mean is over, every search on the track (0: none yet), and the latest search's OD [m].
   double searched_od = 0.0;
+  size_t searches_counted = 0;
   size_t searches = 0;
+  double last_search_od = 0.0;
 };
 
 struct CycleTiming {
