@@ -30,7 +30,7 @@ void RadiusMean::add(double radius, double std) {
   // The sums over the recent measurements within kMadLimit robust spreads of their median, once
   // there are kMinToTrim of them. kMadLimit: chosen on seed 200 (scripts/bench_types' bags, rows
   // meeting the type target lying on the catwalk: 2, 3, 4 gave 7, 7, 6 of 10, a plain mean 6;
-  // standing 9 of 10 with each). kMinToTrim: the median absolute deviation of three searches is
+  // standing 9 of 10 with each; trimmed from three searches on, 3 with ten: 7). kMinToTrim: the median absolute deviation of three searches is
   // no spread (drill_floor, seed 205: a stand's pin end searched 155.1, 155.7, then 171.2 mm,
   // the last left out, and the first two ruled out its true 5" NC50 model for 27 cycles); 10,
   // the first value tried, gave that scene's 96.1 % of end-cycles reported back. Held out on
