@@ -50,3 +50,13 @@ TEST(Metrics, StatisticsAndSuccessFraction) {
   EXPECT_NEAR(s.fractionWithin(0.0045, 0.01), 5.0 / 20.0, 1e-12);
   EXPECT_DOUBLE_EQ(percentile({}, 0.5), 0.0);
 }
+
+TEST(Metrics, UpperMedianIsAValueOfTheSet) {
+  EXPECT_DOUBLE_EQ(upperMedian({}), 0.0);
+  EXPECT_DOUBLE_EQ(upperMedian({4.0}), 4.0);
+  EXPECT_DOUBLE_EQ(upperMedian({9.0, 1.0, 5.0}), 5.0);
+  // An even count: the upper of the two middle values, not their mean (3.5).
+  EXPECT_DOUBLE_EQ(upperMedian({4.0, 1.0, 3.0, 8.0}), 4.0);
+  // One far value does not move it.
+  EXPECT_DOUBLE_EQ(upperMedian({2.0, 2.1, 1.9, 1e9, 2.05}), 2.05);
+}

@@ -33,6 +33,12 @@ double percentile(std::vector<double> v, double q) {
   return v[i] + (pos - i) * (v[j] - v[i]);
 }
 
+double upperMedian(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
 double ErrorStats::fractionWithin(double position_tol_m, double angle_tol_rad) const {
   if (expected_cycles == 0) return 0.0;
   size_t ok = 0;

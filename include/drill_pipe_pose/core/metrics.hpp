@@ -51,4 +51,9 @@ ErrorStats computeStats(const std::vector<PoseError>& errors,
 /// Value at quantile q in [0, 1] (linear interpolation); 0 for an empty set.
 double percentile(std::vector<double> values, double q);
 
+/// The middle value, the upper of the two middle ones for an even count (a value of the set,
+/// not interpolated: robust scales and the drift watch's common part take it); 0 for an empty
+/// set. O(n).
+double upperMedian(std::vector<double> values);
+
 }  // namespace drill_pipe_pose

@@ -4,6 +4,9 @@
 #include <map>
 #include <numeric>
 #include <string>
+#include <utility>
+
+#include "drill_pipe_pose/core/metrics.hpp"
 
 namespace drill_pipe_pose::calibration {
 
@@ -43,9 +46,7 @@ double medianPeriod(const std::vector<Observation>& frames, const std::vector<si
     if (it != last.end() && frames[i].stamp > it->second) dt.push_back(frames[i].stamp - it->second);
     last[frames[i].camera] = frames[i].stamp;
   }
-  if (dt.empty()) return 0.0;
-  std::nth_element(dt.begin(), dt.begin() + dt.size() / 2, dt.end());
-  return dt[dt.size() / 2];
+  return upperMedian(std::move(dt));
 }
 
 }  // namespace

@@ -13,6 +13,7 @@
 
 #include "drill_pipe_pose/core/calibration/target.hpp"
 #include "drill_pipe_pose/core/errors.hpp"
+#include "drill_pipe_pose/core/metrics.hpp"
 
 namespace drill_pipe_pose::calibration {
 
@@ -427,11 +428,7 @@ void pruneOutliers(const ObservationSet& set, const std::vector<Eigen::Vector3d>
     if (!o.rejected) per_camera[o.camera].push_back(rms(cornerErrors(o, X, b)));
   std::vector<double> typical(set.cameras.size(), 0.0);
   for (size_t c = 0; c < per_camera.size(); ++c)
-    if (!per_camera[c].empty()) {
-      auto& v = per_camera[c];
-      std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-      typical[c] = v[v.size() / 2];
-    }
+    typical[c] = upperMedian(per_camera[c]);
   for (Obs& o : *obs) {
     if (o.rejected) continue;
     const std::vector<double> err = cornerErrors(o, X, b);

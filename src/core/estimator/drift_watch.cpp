@@ -7,6 +7,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <utility>
+
+#include "drill_pipe_pose/core/metrics.hpp"
 
 namespace drill_pipe_pose {
 
@@ -128,11 +131,7 @@ void DriftWatch::update(int64_t stamp_ns,
   // the model, a depth bias of the sensor type: about -10 mm in every camera of the simulated
   // thesis_vertical, kinect_v2_calibrated, seed 61): with kMinCommon cameras or more, the
   // median is taken off each.
-  double common = 0.0;
-  if (rays.size() >= kMinCommon) {
-    std::nth_element(rays.begin(), rays.begin() + rays.size() / 2, rays.end());
-    common = rays[rays.size() / 2];
-  }
+  const double common = rays.size() >= kMinCommon ? upperMedian(std::move(rays)) : 0.0;
   for (const auto& [name, sm] : samples)
     updateCamera(stamp_ns, sm.ray - common, sm.lateral / sm.range, sm.points, &cams_[name]);
 }

@@ -6,6 +6,8 @@
 #include <cmath>
 #include <limits>
 
+#include "drill_pipe_pose/core/metrics.hpp"
+
 namespace drill_pipe_pose {
 
 namespace {
@@ -40,10 +42,6 @@ void RadiusMean::add(double radius, double std) {
   constexpr size_t kMinToTrim = 10;
   double limit = std::numeric_limits<double>::infinity(), median = 0.0;
   if (recent_.size() >= kMinToTrim) {
-    const auto middle = [](std::vector<double> v) {  // the upper median
-      std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-      return v[v.size() / 2];
-    };
     std::vector<double> v, dev;
     double stated = 0.0;
     for (const auto& m : recent_) {
@@ -51,9 +49,9 @@ void RadiusMean::add(double radius, double std) {
       stated += m.second;
     }
     stated /= static_cast<double>(recent_.size());
-    median = middle(v);
+    median = upperMedian(v);
     for (double x : v) dev.push_back(std::abs(x - median));
-    limit = kMadLimit * std::max(1.4826 * middle(dev), 0.5 * stated);
+    limit = kMadLimit * std::max(1.4826 * upperMedian(dev), 0.5 * stated);
   }
   n_ = 0;
   sum_ = sum2_ = std_sum_ = 0.0;
