@@ -30,14 +30,17 @@ void RadiusMean::add(double radius, double std) {
   recent_.emplace_back(radius, std);
   if (recent_.size() > window_) recent_.pop_front();
   // The sums over the recent measurements within kMadLimit robust spreads of their median, once
-  // there are kMinToTrim of them. kMadLimit: chosen on seed 200 (scripts/bench_types' bags, rows
-  // meeting the type target lying on the catwalk: 2, 3, 4 gave 7, 7, 6 of 10, a plain mean 6;
-  // standing 9 of 10 with each; trimmed from three searches on, 3 with ten: 7). kMinToTrim: the median absolute deviation of three searches is
-  // no spread (drill_floor, seed 205: a stand's pin end searched 155.1, 155.7, then 171.2 mm,
-  // the last left out, and the first two ruled out its true 5" NC50 model for 27 cycles); 10,
-  // the first value tried, gave that scene's 96.1 % of end-cycles reported back. Held out on
-  // seeds 93, 201, 214 and 215 against a plain mean: lying 18 -> 26 of 40 rows, standing
-  // 28 -> 27. The floor, half the mean stated error: a few equal readings have no deviation.
+  // there are kMinToTrim of them.
+  // kMadLimit: chosen on seed 200 (scripts/bench_types' bags; rows meeting the type target lying
+  // on the catwalk, trimming from three searches on: 2, 3, 4 gave 7, 7, 6 of 10, a plain mean 6;
+  // standing 9 of 10 with each; 3 trimming from ten gives 7).
+  // kMinToTrim: the median absolute deviation of three searches is no spread (drill_floor, seed
+  // 205: a stand's pin end searched 155.1, 155.7, then 171.2 mm, the last left out, and the
+  // first two ruled out its true 5" NC50 model for 27 cycles); 10, the first value tried, gave
+  // that scene's 96.1 % of end-cycles reported back.
+  // Held out on seeds 93, 201, 214 and 215 against a plain mean: lying 18 -> 26 of 40 rows,
+  // standing 28 -> 27. The floor, half the mean stated error: a few equal readings have no
+  // deviation.
   constexpr double kMadLimit = 3.0;
   constexpr size_t kMinToTrim = 10;
   double limit = std::numeric_limits<double>::infinity(), median = 0.0;
