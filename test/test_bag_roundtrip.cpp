@@ -1,5 +1,6 @@
 // simulate_bag round trip: the bag holds, for every capture of the schedule, exactly the frame the
-// simulator renders for it (byte-identical SensorFrame), the latched static TF and ground truth.
+// simulator renders for it (byte-identical SensorFrame), the latched static TF and ground truth;
+// and a bag of SensorFrame's definition before its amplitude field still reads.
 #include <drill_pipe_pose/SensorFrame.h>
 #include <geometry_msgs/PoseStamped.h>
 #include <gtest/gtest.h>
@@ -14,6 +15,7 @@
 
 #include "drill_pipe_pose/ros/conversions.hpp"
 #include "drill_pipe_pose/sim/rig_simulator.hpp"
+#include "sample_messages.hpp"
 
 using namespace drill_pipe_pose;
 
@@ -75,5 +77,32 @@ TEST(SimulateBag, RoundTripIsExact) {
     EXPECT_EQ(bytes(*frames[cam][next[cam]++]), bytes(expected))
         << cam << " at t = " << c.t << " (seed " << seed << ")";
   }
+  std::remove(bag_path.c_str());
+}
+
+TEST(SimulateBag, ABagOfTheDefinitionBeforeAmplitudeStillReads) {
+  // What a bag recorded before SensorFrame's amplitude field holds: the older definition's MD5.
+  const std::string bag_path = testing::TempDir() + "dpp_legacy.bag";
+  const SensorFrame now = drill_pipe_pose_test::sampleSensorFrame("cam2", 9);
+  LegacySensorFrame old;
+  old.header = now.header;
+  old.camera = now.camera;
+  old.color_info = now.color_info;
+  old.depth = now.depth;
+  old.depth_info = now.depth_info;
+  old.boxes = now.boxes;
+  {
+    rosbag::Bag bag(bag_path, rosbag::bagmode::Write);
+    bag.write("/cam2/sensor_frame", ros::Time(5), old);
+    bag.write("/cam2/sensor_frame", ros::Time(6), now);
+  }
+  rosbag::Bag bag(bag_path, rosbag::bagmode::Read);
+  std::vector<SensorFrameConstPtr> read;
+  for (const rosbag::MessageInstance& m : rosbag::View(bag))
+    if (auto f = sensorFrameOf(m)) read.push_back(f);
+  ASSERT_EQ(read.size(), 2u);
+  EXPECT_EQ(bytes(*read[0]), bytes(now));  // upgraded: no amplitude
+  EXPECT_EQ(bytes(*read[1]), bytes(now));
+  EXPECT_TRUE(fromMsg(read[0]).amplitude.empty());
   std::remove(bag_path.c_str());
 }

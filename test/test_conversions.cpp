@@ -1,7 +1,9 @@
 // ROS <-> core conversions: exact round trips and bad messages named by camera and field.
 #include <gtest/gtest.h>
+#include <topic_tools/shape_shifter.h>
 
 #include <boost/make_shared.hpp>
+#include <cstring>
 
 #include "drill_pipe_pose/core/errors.hpp"
 #include "drill_pipe_pose/ros/conversions.hpp"
@@ -132,4 +134,111 @@ TEST(ConversionsBadInput, SizesBeyondTheLimitsAreRejectedFirst) {
   tight = InputLimits();
   tight.max_image_pixels = static_cast<uint64_t>(f.depth.width) * f.depth.height - 1;
   EXPECT_THROW(fromMsg(share(f), tight), InputError);
+}
+
+namespace {
+
+/// `f` with an amplitude image of its depth's size (16UC1, value 100 + u + v DN).
+SensorFrame withAmplitude(SensorFrame f) {
+  sensor_msgs::Image& a = f.amplitude;
+  a.header = f.depth.header;
+  a.width = f.depth.width;
+  a.height = f.depth.height;
+  a.encoding = "16UC1";
+  a.step = a.width * 2;
+  a.data.resize(static_cast<size_t>(a.step) * a.height);
+  for (uint32_t v = 0; v < a.height; ++v)
+    for (uint32_t u = 0; u < a.width; ++u) {
+      const uint16_t dn = static_cast<uint16_t>(100 + u + v);
+      std::memcpy(&a.data[v * a.step + 2 * u], &dn, 2);
+    }
+  return f;
+}
+
+}  // namespace
+
+TEST(Conversions, AmplitudeRoundTripIsExactAndShared) {
+  const SensorFrame msg = withAmplitude(sampleSensorFrame("cam4", 11));
+  const auto shared = share(msg);
+  const SensorFrameData data = fromMsg(shared);
+  EXPECT_TRUE(data.amplitude_refused.empty()) << data.amplitude_refused;
+  ASSERT_FALSE(data.amplitude.empty());
+  EXPECT_EQ(data.amplitude.data.get(), shared->amplitude.data.data());
+  EXPECT_FLOAT_EQ(data.amplitude.at(3, 2), 105.0f);
+  EXPECT_EQ(serialize(toMsg(data)), serialize(msg));
+}
+
+TEST(Conversions, NoAmplitudeMeansNotAvailable) {
+  const SensorFrameData data = fromMsg(share(sampleSensorFrame("cam1", 3)));
+  EXPECT_TRUE(data.amplitude.empty());
+  EXPECT_TRUE(data.amplitude_refused.empty());
+}
+
+TEST(ConversionsBadInput, AmplitudeOfAnotherSizeOrEncodingIsRefusedButTheDepthIsUsed) {
+  SensorFrame other_crop = withAmplitude(sampleSensorFrame("cam2", 5));
+  other_crop.amplitude.width -= 1;
+  other_crop.amplitude.step -= 2;
+  SensorFrame bad_encoding = withAmplitude(sampleSensorFrame("cam2", 5));
+  bad_encoding.amplitude.encoding = "8UC1";
+  SensorFrame short_data = withAmplitude(sampleSensorFrame("cam2", 5));
+  short_data.amplitude.data.resize(10);
+  for (const auto& [f, needle] : {std::pair{other_crop, "is 36x"}, {bad_encoding, "8UC1"},
+                                  {short_data, "data has 10 bytes"}}) {
+    const SensorFrameData data = fromMsg(share(f));  // no throw: the depth is still used
+    EXPECT_TRUE(data.amplitude.empty());
+    EXPECT_EQ(data.depth.width, f.depth.width);
+    for (const char* n : {"cam2", "amplitude", needle})
+      EXPECT_NE(data.amplitude_refused.find(n), std::string::npos) << data.amplitude_refused;
+  }
+}
+
+TEST(Conversions, AFrameOfTheDefinitionBeforeAmplitudeReadsWithoutIt) {
+  // A bag or a publisher of the older definition: the same fields but the amplitude.
+  const SensorFrame now = sampleSensorFrame("cam3", 7);
+  LegacySensorFrame old;
+  old.header = now.header;
+  old.camera = now.camera;
+  old.color_info = now.color_info;
+  old.depth = now.depth;
+  old.depth_info = now.depth_info;
+  old.boxes = now.boxes;
+  EXPECT_NE(std::string(ros::message_traits::md5sum<LegacySensorFrame>()),
+            std::string(ros::message_traits::md5sum<SensorFrame>()));
+  EXPECT_EQ(serialize(upgrade(old)), serialize(now));
+}
+
+TEST(Conversions, TheNodeTellsBothDefinitionsApartOnTheWire) {
+  // What the estimator node's subscription gets: a ShapeShifter of whatever the publisher sent.
+  const SensorFrame now = withAmplitude(sampleSensorFrame("cam5", 2));
+  LegacySensorFrame old;
+  old.header = now.header;
+  old.camera = now.camera;
+  old.color_info = now.color_info;
+  old.depth = now.depth;
+  old.depth_info = now.depth_info;
+  old.boxes = now.boxes;
+  const auto shifted = [](const auto& m) {
+    using M = std::decay_t<decltype(m)>;
+    std::vector<uint8_t> b(ros::serialization::serializationLength(m));
+    ros::serialization::OStream out(b.data(), static_cast<uint32_t>(b.size()));
+    ros::serialization::serialize(out, m);
+    topic_tools::ShapeShifter ss;
+    // Both publish as drill_pipe_pose/SensorFrame; only the MD5 sums differ.
+    ss.morph(ros::message_traits::md5sum<M>(), "drill_pipe_pose/SensorFrame",
+             ros::message_traits::definition<M>(), "0");
+    ros::serialization::IStream in(b.data(), static_cast<uint32_t>(b.size()));
+    ss.read(in);
+    return ss;
+  };
+  const SensorFrameConstPtr a = sensorFrameOf(shifted(now));
+  ASSERT_TRUE(a);
+  EXPECT_EQ(serialize(*a), serialize(now));
+  const SensorFrameConstPtr b = sensorFrameOf(shifted(old));
+  ASSERT_TRUE(b);
+  EXPECT_TRUE(b->amplitude.data.empty());
+  EXPECT_EQ(b->depth.data, now.depth.data);
+  // Another type on the topic is not a SensorFrame.
+  topic_tools::ShapeShifter other;
+  other.morph(ros::message_traits::md5sum<sensor_msgs::Image>(), "sensor_msgs/Image", "", "0");
+  EXPECT_FALSE(sensorFrameOf(other));
 }

@@ -14,6 +14,7 @@
 #include "drill_pipe_pose/core/estimator/pose_estimator.hpp"
 #include "drill_pipe_pose/core/estimator/stages.hpp"
 #include "drill_pipe_pose/core/estimator/temporal_filter.hpp"
+#include "drill_pipe_pose/core/kinect_noise.hpp"
 #include "drill_pipe_pose/core/metrics.hpp"
 #include "drill_pipe_pose/core/pipe_end_frame.hpp"
 #include "drill_pipe_pose/core/tool_joint.hpp"
@@ -381,6 +382,55 @@ TEST(CutOut, KeepsOnlyPixelsRegisteringIntoTheBoxAndCropIsEquivalent) {
   ASSERT_EQ(out2[0].size(), out[0].size());
   for (size_t i = 0; i < out[0].size(); ++i)
     EXPECT_LT((out[0][i].p_world - out2[0][i].p_world).norm(), 1e-5f);
+}
+
+TEST(CutOut, MeasuredAmplitudeTakesTheWeakReturnBiasOutOfTheDepth) {
+  Scene scene;
+  scene.joints.push_back(makeJoint(EndLabel::kBoxEnd, poseAt({5, 5, 1.2}, {0, 0, 1})));
+  const auto cams = ring({5, 5, 1.0}, 5.5, 4.5);
+  const auto inputs = renderAll(scene, cams, {});
+  const CameraInput& in = inputs[0];
+  EstimatorConfig cfg;
+  cfg.noise.amplitude_model = true;
+  const CycleCamera plain = makeCycleCamera(in.frame, in.T_world_depth, in.T_color_depth, 0.0f);
+  std::array<std::vector<CloudPoint>, kNumEnds> without;
+  cutOutCamera(plain, 0, cfg, &without);
+  ASSERT_GT(without[0].size(), 100u);
+  // A bright return (a = 0.1 /m^2, 2 m away at reflectivity 0.4) reads nearer than the
+  // calibrated reference: the cut-out moves it back along its ray by the model's bias.
+  SensorFrameData f = in.frame;
+  f.amplitude = AmplitudeImage::allocate(f.depth.width, f.depth.height);
+  const float a = 0.1f;
+  for (uint32_t v = 0; v < f.depth.height; ++v)
+    for (uint32_t u = 0; u < f.depth.width; ++u)
+      f.amplitude.set(u, v, a * static_cast<float>(cfg.noise.amplitude_scale));
+  const CycleCamera bright = makeCycleCamera(f, in.T_world_depth, in.T_color_depth, 0.0f);
+  std::array<std::vector<CloudPoint>, kNumEnds> with;
+  cutOutCamera(bright, 0, cfg, &with);
+  ASSERT_EQ(with[0].size(), without[0].size());
+  const kinect_v2::AmplitudeModel model;
+  const double bias = kinect_v2::weakReturnBias(model, a, cfg.profile_fit.bias_reference);
+  ASSERT_LT(bias, -0.02);  // about 28 mm nearer
+  const Eigen::Vector3f eye = in.T_world_depth.translation().cast<float>();
+  for (size_t i = 0; i < with[0].size(); i += 37) {
+    const Eigen::Vector3f d = with[0][i].p_world - without[0][i].p_world;
+    const Eigen::Vector3f ray = (without[0][i].p_world - eye).normalized();
+    EXPECT_GT(d.dot(ray), 0.0f) << "point " << i << " moved toward the camera";
+    // Along the ray by -bias / cos(the ray's angle to the optical axis), within a few percent.
+    EXPECT_NEAR(d.norm(), -bias, 0.1 * -bias) << "point " << i;
+    EXPECT_EQ(with[0][i].sigma, without[0][i].sigma);
+  }
+  // With the amplitude model off (the default), the amplitude changes nothing.
+  cfg.noise.amplitude_model = false;
+  std::array<std::vector<CloudPoint>, kNumEnds> off;
+  cutOutCamera(bright, 0, cfg, &off);
+  ASSERT_EQ(off[0].size(), without[0].size());
+  for (size_t i = 0; i < off[0].size(); ++i)
+    EXPECT_EQ(off[0][i].p_world, without[0][i].p_world) << "point " << i;
+  // An amplitude image of another size is not used.
+  f.amplitude = AmplitudeImage::allocate(f.depth.width - 1, f.depth.height);
+  const CycleCamera other = makeCycleCamera(f, in.T_world_depth, in.T_color_depth, 0.0f);
+  EXPECT_TRUE(other.amplitude.empty());
 }
 
 TEST(Carving, RemovesClutterSeenInsideOneCameraBoxOnly) {

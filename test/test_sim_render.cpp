@@ -11,6 +11,7 @@
 #include "drill_pipe_pose/core/camera_model.hpp"
 #include "drill_pipe_pose/core/depth_image.hpp"
 #include "drill_pipe_pose/core/errors.hpp"
+#include "drill_pipe_pose/core/kinect_noise.hpp"
 #include "drill_pipe_pose/core/pipe_end_frame.hpp"
 #include "drill_pipe_pose/core/rig_calibration.hpp"
 #include "drill_pipe_pose/sim/depth_effects.hpp"
@@ -716,6 +717,26 @@ TEST(SimDepthEffects, IdealProfileWritesTheInputDepthPlusOffset) {
   EXPECT_FLOAT_EQ(out.depthAt(3, 2), 2.5f);
   EXPECT_FLOAT_EQ(out.depthAt(1, 1), 1.25f);
   EXPECT_TRUE(out.depthAt(1, 0) != out.depthAt(1, 0));
+}
+
+TEST(SimDepthEffects, TheAmplitudeImageIsTheModelsAmplitudeAndLeavesTheDepthAlone) {
+  const int n = 40;
+  FlatView scene(n, n + 1, 2.0f);  // rows 1..n at 2 m
+  for (size_t i = 0; i < scene.reflectivity.size(); ++i) scene.reflectivity[i] = 0.5f;
+  for (const char* profile : {"ideal", "kinect_v2_calibrated"}) {
+    const SensorEffects fx = sensorProfile(profile);
+    DepthImage plain, depth;
+    AmplitudeImage amp;
+    applyDepthEffects(fx, scene.view(n, n + 1), 0.0, 1.0, 7, 8, &plain);
+    applyDepthEffects(fx, scene.view(n, n + 1), 0.0, 1.0, 7, 8, &depth, &amp);
+    EXPECT_EQ(bytesOf(plain), bytesOf(depth)) << profile << ": no extra random draw";
+    ASSERT_EQ(amp.width, static_cast<uint32_t>(n));
+    ASSERT_EQ(amp.height, static_cast<uint32_t>(n + 1));
+    EXPECT_EQ(amp.at(5, 0), 0.0f) << profile << ": no return, no amplitude";
+    // a = reflectivity cos / z^2 (head-on) in digital numbers, from the pixel's own return.
+    const float dn = 0.5f / 4.0f * static_cast<float>(kinect_v2::kDnPerAmplitude);
+    EXPECT_NEAR(amp.at(7, 9), dn, 0.5f + 0.02f * dn) << profile;
+  }
 }
 
 TEST(SimDepthEffects, AxialNoiseOfAFlatPatchMatchesTheModel) {

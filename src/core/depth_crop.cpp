@@ -41,6 +41,28 @@ SensorFrameData cropDepthToBoxes(const SensorFrameData& frame,
                   frame.depth.data.get() + static_cast<size_t>(v) * frame.depth.step + u0 * bpp,
                   (u1 - u0) * bpp);
   out.depth = crop;
+  // The amplitude, on the depth's grid, is cropped to the same rectangle.
+  if (!frame.amplitude.empty() && amplitudeMismatch(frame.amplitude, frame.depth, "").empty()) {
+    const size_t abpp = frame.amplitude.f32 ? 4 : 2;
+    AmplitudeImage a;
+    a.width = u1 - u0;
+    a.height = v1 - v0;
+    a.f32 = frame.amplitude.f32;
+    a.step = static_cast<uint32_t>(a.width * abpp);
+    a.size = static_cast<size_t>(a.step) * a.height;
+    auto buf =
+        std::shared_ptr<uint8_t>(new uint8_t[std::max<size_t>(a.size, 1)](), std::default_delete<uint8_t[]>());
+    if (!empty)
+      for (int v = v0; v < v1; ++v)
+        std::memcpy(buf.get() + static_cast<size_t>(v - v0) * a.step,
+                    frame.amplitude.data.get() + static_cast<size_t>(v) * frame.amplitude.step +
+                        u0 * abpp,
+                    (u1 - u0) * abpp);
+    a.data = buf;
+    out.amplitude = a;
+  } else {
+    out.amplitude = AmplitudeImage();
+  }
   out.depth_info.roi.x_offset = cam.depth.offsetX() + u0;
   out.depth_info.roi.y_offset = cam.depth.offsetY() + v0;
   out.depth_info.roi.width = u1 - u0;

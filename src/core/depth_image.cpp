@@ -1,6 +1,8 @@
 #include "drill_pipe_pose/core/depth_image.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <sstream>
 
 #include "drill_pipe_pose/core/errors.hpp"
 
@@ -47,6 +49,54 @@ void DepthImage::setCorrection(const DepthCorrection& c, const std::string& sour
          ") is not finite or its scale not positive");
   correction_offset = static_cast<float>(c.offset);
   correction_gain = static_cast<float>(1.0 / c.scale);
+}
+
+AmplitudeImage AmplitudeImage::allocate(uint32_t width, uint32_t height) {
+  AmplitudeImage img;
+  img.width = width;
+  img.height = height;
+  img.step = width * 2;
+  img.size = static_cast<size_t>(img.step) * height;
+  img.data = std::shared_ptr<uint8_t>(new uint8_t[img.size](), std::default_delete<uint8_t[]>());
+  return img;
+}
+
+void AmplitudeImage::set(uint32_t u, uint32_t v, float dn) {
+  const float c = std::clamp(std::round(dn), 0.0f, 65535.0f);
+  const uint16_t x = c == c ? static_cast<uint16_t>(c) : 0;
+  std::memcpy(const_cast<uint8_t*>(data.get()) + static_cast<size_t>(v) * step + 2 * u, &x, 2);
+}
+
+bool parseAmplitudeEncoding(const std::string& encoding, const std::string& source) {
+  if (encoding == "16UC1" || encoding == "mono16") return false;
+  if (encoding == "32FC1") return true;
+  fail(source, ": encoding = \"", encoding,
+       "\" is not a supported amplitude encoding (16UC1, mono16 or 32FC1)");
+}
+
+std::string amplitudeMismatch(const AmplitudeImage& amplitude, const DepthImage& depth,
+                              const std::string& source) {
+  if (amplitude.empty()) return "";
+  std::ostringstream s;
+  if (amplitude.width != depth.width || amplitude.height != depth.height) {
+    s << source << ": amplitude image is " << amplitude.width << "x" << amplitude.height
+      << " but the depth image is " << depth.width << "x" << depth.height
+      << " (another grid or crop): amplitude ignored, depth used without it";
+    return s.str();
+  }
+  const size_t bpp = amplitude.f32 ? 4 : 2;
+  if (amplitude.step < amplitude.width * bpp) {
+    s << source << ": amplitude image step = " << amplitude.step << " bytes is less than width * "
+      << bpp << ": amplitude ignored, depth used without it";
+    return s.str();
+  }
+  const size_t need = static_cast<size_t>(amplitude.step) * amplitude.height;
+  if (!amplitude.data || amplitude.size < need) {
+    s << source << ": amplitude image data has " << amplitude.size << " bytes, step * height = "
+      << need << " expected: amplitude ignored, depth used without it";
+    return s.str();
+  }
+  return "";
 }
 
 void validateDepthImage(const DepthImage& image, const PinholeCamera& camera,

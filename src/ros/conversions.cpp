@@ -86,6 +86,35 @@ DepthImage depthFromMsg(const sensor_msgs::Image& msg, const std::string& source
   return d;
 }
 
+AmplitudeImage amplitudeFromMsg(const sensor_msgs::ImageConstPtr& msg, const std::string& source) {
+  AmplitudeImage a;
+  if (msg->width == 0 || msg->height == 0) return a;  // not available
+  a.f32 = parseAmplitudeEncoding(msg->encoding, source);
+  if (msg->is_bigendian)
+    fail(source, ": is_bigendian = 1 is not supported (publish a little-endian amplitude)");
+  a.width = msg->width;
+  a.height = msg->height;
+  a.step = msg->step;
+  a.size = msg->data.size();
+  a.data = std::shared_ptr<const uint8_t>(msg->data.data(), [msg](const uint8_t*) {});
+  return a;
+}
+
+sensor_msgs::Image toMsg(const AmplitudeImage& image, int64_t stamp_ns,
+                         const std::string& frame_id) {
+  sensor_msgs::Image m;
+  if (image.empty()) return m;
+  m.header.stamp = fromNs(stamp_ns);
+  m.header.frame_id = frame_id;
+  m.width = image.width;
+  m.height = image.height;
+  m.encoding = image.f32 ? "32FC1" : "16UC1";
+  m.is_bigendian = 0;
+  m.step = image.step;
+  m.data.assign(image.data.get(), image.data.get() + image.size);
+  return m;
+}
+
 sensor_msgs::Image toMsg(const DepthImage& image, int64_t stamp_ns, const std::string& frame_id) {
   sensor_msgs::Image m;
   m.header.stamp = fromNs(stamp_ns);
@@ -147,6 +176,16 @@ SensorFrameData fromMsg(const SensorFrameConstPtr& msg, const InputLimits& limit
   const sensor_msgs::ImageConstPtr depth_ptr(msg, &msg->depth);
   f.depth = depthFromMsg(depth_ptr, cam + " depth");
   validateDepthImage(f.depth, depth_cam, cam + " depth");
+  // The amplitude is optional: one that cannot be read beside the depth is refused with its
+  // reason (the caller logs it), and the depth is used without it.
+  try {
+    const sensor_msgs::ImageConstPtr amp_ptr(msg, &msg->amplitude);
+    f.amplitude = amplitudeFromMsg(amp_ptr, cam + " amplitude");
+    f.amplitude_refused = amplitudeMismatch(f.amplitude, f.depth, cam);
+  } catch (const InputError& e) {
+    f.amplitude_refused = std::string(e.what()) + ": amplitude ignored, depth used without it";
+  }
+  if (!f.amplitude_refused.empty()) f.amplitude = AmplitudeImage();
   f.boxes.reserve(msg->boxes.size());
   for (size_t i = 0; i < msg->boxes.size(); ++i)
     f.boxes.push_back(fromMsg(msg->boxes[i], cam + " boxes[" + std::to_string(i) + "]"));
@@ -162,7 +201,19 @@ SensorFrame toMsg(const SensorFrameData& f) {
   m.depth_info = toMsg(f.depth_info, f.depth_stamp_ns);
   m.depth = toMsg(f.depth, f.depth_stamp_ns, f.depth_frame_id);
   for (const auto& b : f.boxes) m.boxes.push_back(toMsg(b));
+  m.amplitude = toMsg(f.amplitude, f.depth_stamp_ns, f.depth_frame_id);
   return m;
+}
+
+SensorFrame upgrade(const LegacySensorFrame& old) {
+  SensorFrame m;
+  m.header = old.header;
+  m.camera = old.camera;
+  m.color_info = old.color_info;
+  m.depth = old.depth;
+  m.depth_info = old.depth_info;
+  m.boxes = old.boxes;
+  return m;  // amplitude: empty, not available
 }
 
 geometry_msgs::TransformStamped toTransformMsg(const Eigen::Isometry3d& T_parent_child,

@@ -4,6 +4,7 @@
 
 #include <tf2/exceptions.h>
 
+#include "drill_pipe_pose/core/errors.hpp"
 #include "drill_pipe_pose/core/frame_sync.hpp"
 #include "drill_pipe_pose/ros/conversions.hpp"
 
@@ -16,7 +17,9 @@ SensorFrameData detectorFrame(detector::YoloDetector& detector, const std::strin
                               const sensor_msgs::CameraInfo& depth_info,
                               const Eigen::Isometry3d* T_color_depth,
                               const detector::FrameAssemblyOptions& options,
-                              const detector::FrameSources& sources, cv::Mat* bgr) {
+                              const detector::FrameSources& sources, cv::Mat* bgr,
+                              const sensor_msgs::ImageConstPtr& amplitude,
+                              const std::string& amplitude_source) {
   SensorFrameData f;
   f.camera = camera;
   f.stamp_ns = toNs(color->header.stamp);
@@ -26,6 +29,15 @@ SensorFrameData detectorFrame(detector::YoloDetector& detector, const std::strin
   f.depth_stamp_ns = toNs(depth->header.stamp);
   f.depth_frame_id = depth->header.frame_id;
   f.depth = depthFromMsg(depth, sources.depth);
+  if (amplitude) {
+    try {
+      f.amplitude = amplitudeFromMsg(amplitude, amplitude_source);
+      f.amplitude_refused = amplitudeMismatch(f.amplitude, f.depth, amplitude_source);
+    } catch (const InputError& e) {
+      f.amplitude_refused = std::string(e.what()) + ": amplitude ignored, depth used without it";
+    }
+    if (!f.amplitude_refused.empty()) f.amplitude = AmplitudeImage();
+  }
   detector::ColorPixels pixels;
   pixels.encoding = color->encoding;
   pixels.width = color->width;
@@ -51,7 +63,8 @@ void OfflineDetector::addTf(const geometry_msgs::TransformStamped& t, bool is_st
 std::optional<SensorFrameData> OfflineDetector::process(
     const std::string& camera, const sensor_msgs::ImageConstPtr& color,
     const sensor_msgs::CameraInfo& color_info, const sensor_msgs::ImageConstPtr& depth,
-    const sensor_msgs::CameraInfo& depth_info, const std::string& prefix) {
+    const sensor_msgs::CameraInfo& depth_info, const std::string& prefix,
+    const sensor_msgs::ImageConstPtr& amplitude) {
   const int64_t stamp = toNs(color->header.stamp);
   auto last = last_stamp_ns_.find(camera);
   const int64_t last_ns = last == last_stamp_ns_.end() ? 0 : last->second;
@@ -66,8 +79,10 @@ std::optional<SensorFrameData> OfflineDetector::process(
   }
   detector::FrameSources sources = detector::kinectSources(camera, prefix);
   sources.roi = "parameter roi";
-  SensorFrameData f = detectorFrame(detector_, camera, color, color_info, depth, depth_info,
-                                    T ? &*T : nullptr, options_, sources);
+  SensorFrameData f =
+      detectorFrame(detector_, camera, color, color_info, depth, depth_info, T ? &*T : nullptr,
+                    options_, sources, nullptr, amplitude,
+                    prefix + conventions::amplitudeImageTopic(camera));
   last_stamp_ns_[camera] = stamp;
   ++frames_;
   for (const DetectionBox& b : f.boxes) ++(b.label == EndLabel::kBoxEnd ? box_ends_ : pin_ends_);

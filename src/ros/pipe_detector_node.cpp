@@ -16,6 +16,8 @@
 
 #include <opencv2/core.hpp>
 
+#include <cmath>
+#include <deque>
 #include <optional>
 
 #include "drill_pipe_pose/core/detector/detector_node_params.hpp"
@@ -74,6 +76,14 @@ class PipeDetectorNode {
     sync_ = makeDetectorSync(queue, slop);
     sync_->connectInput(color_sub_, color_info_sub_, depth_sub_, depth_info_sub_);
     sync_->registerCallback(&PipeDetectorNode::onFrames, this);
+    // The amplitude on its own subscription, matched by stamp when a frame is assembled: a
+    // driver without it, or a stalled IR stream, never holds the depth back.
+    if (!p.amplitude_topic.empty()) {
+      amplitude_topic_ = nh_.resolveName(camera_ + "/" + p.amplitude_topic);
+      amplitude_sub_ = nh_.subscribe<Image>(
+          amplitude_topic_, 2 * queue + 2, [this](const ImageConstPtr& m) { onAmplitude(m); },
+          ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
+    }
 
     const auto& l = detector_->layout();
     std::string labels;
@@ -81,7 +91,8 @@ class PipeDetectorNode {
     ROS_INFO(
         "pipe_detector %s: model %s (%s output, %d classes: %s), input %dx%d, roi %s, "
         "confidence >= %.2f, NMS %.2f (cross-class %.2f), max %d box(es) per class, depth %s, "
-        "sync slop %.3f s, max rate %s, %d thread(s); %s + %s + %s + %s -> %s",
+        "sync slop %.3f s, max rate %s, %d thread(s); %s + %s + %s + %s (+ amplitude %s) -> "
+        "%s",
         camera_.c_str(), c.model.c_str(), detector::outputFormatName(l.format), l.num_classes,
         labels.c_str(), c.input_width, c.input_height,
         c.roi.isFull() ? "whole image"
@@ -92,10 +103,34 @@ class PipeDetectorNode {
         options_.crop_depth ? "cropped to the boxes" : "full", slop,
         max_rate_ > 0 ? (std::to_string(max_rate_) + " Hz").c_str() : "unlimited", c.num_threads,
         color_topic_.c_str(), color_info_topic_.c_str(), depth_topic_.c_str(),
-        depth_info_topic_.c_str(), pub_.getTopic().c_str());
+        depth_info_topic_.c_str(),
+        amplitude_topic_.empty() ? "none" : amplitude_topic_.c_str(), pub_.getTopic().c_str());
   }
 
  private:
+  /// Amplitude images kept to be matched to their depth (a few frames of the driver's rate).
+  static constexpr size_t kAmplitudeKept = 8;
+
+  void onAmplitude(const ImageConstPtr& m) {
+    amplitudes_.push_back(m);
+    if (amplitudes_.size() > kAmplitudeKept) amplitudes_.pop_front();
+  }
+
+  /// The kept amplitude image stamped as `depth` (within 1 ms), or null. Unmatched after
+  /// amplitude images have been seen, it says so (throttled): the frame goes without.
+  ImageConstPtr amplitudeFor(const ImageConstPtr& depth) {
+    if (amplitude_topic_.empty()) return nullptr;
+    for (auto it = amplitudes_.rbegin(); it != amplitudes_.rend(); ++it)
+      if (std::abs(((*it)->header.stamp - depth->header.stamp).toSec()) <= 1e-3) return *it;
+    if (!amplitudes_.empty())
+      ROS_WARN_THROTTLE(10.0,
+                        "pipe_detector %s: no %s stamped %.3f s (the depth's; newest %.3f s): "
+                        "frame sent without amplitude (throttled, 10 s)",
+                        camera_.c_str(), amplitude_topic_.c_str(), depth->header.stamp.toSec(),
+                        amplitudes_.back()->header.stamp.toSec());
+    return nullptr;
+  }
+
   void onFrames(const ImageConstPtr& color, const CameraInfoConstPtr& color_info,
                 const ImageConstPtr& depth, const CameraInfoConstPtr& depth_info) {
     const ros::Time stamp = color->header.stamp;
@@ -133,7 +168,10 @@ class PipeDetectorNode {
     cv::Mat bgr;
     const SensorFrameData f =
         detectorFrame(*detector_, camera_, color, *color_info, depth, *depth_info,
-                      T ? &*T : nullptr, options_, sources_, &bgr);
+                      T ? &*T : nullptr, options_, sources_, &bgr, amplitudeFor(depth),
+                      amplitude_topic_);
+    if (!f.amplitude_refused.empty())
+      ROS_WARN_THROTTLE(10.0, "pipe_detector %s (throttled, 10 s)", f.amplitude_refused.c_str());
     const detector::DetectorTiming& t = detector_->lastTiming();
     ROS_DEBUG("pipe_detector %s: %zu boxes, %.1f ms (pre %.1f, net %.1f, post %.1f)",
               camera_.c_str(), f.boxes.size(), t.total(), t.preprocess_ms, t.inference_ms,
@@ -190,6 +228,9 @@ class PipeDetectorNode {
   message_filters::Subscriber<Image> color_sub_, depth_sub_;
   message_filters::Subscriber<CameraInfo> color_info_sub_, depth_info_sub_;
   std::unique_ptr<DetectorSync> sync_;
+  std::string amplitude_topic_;  ///< resolved; "" : none
+  ros::Subscriber amplitude_sub_;
+  std::deque<ImageConstPtr> amplitudes_;
 };
 
 }  // namespace

@@ -16,6 +16,7 @@
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
+#include <topic_tools/shape_shifter.h>
 #include <visualization_msgs/MarkerArray.h>
 
 #include <algorithm>
@@ -112,11 +113,23 @@ class PoseEstimatorNode {
     std::string late_text;  ///< the last tick's late frames, "N of M"
   };
 
+  /// Any message type is accepted on the topic and told apart by its MD5 sum (sensorFrameOf):
+  /// the current SensorFrame, or the definition before its amplitude field (a bag recorded
+  /// before it, a sensor node not yet updated), which plays on without amplitude.
   ros::Subscriber subscribe(const std::string& cam) {
-    return nh_.subscribe<SensorFrame>(
-        conventions::sensorFrameTopic(cam), 10,
-        [this, cam](const SensorFrameConstPtr& m) { onFrame(cam, m); }, ros::VoidConstPtr(),
-        ros::TransportHints().tcpNoDelay());
+    const std::string topic = conventions::sensorFrameTopic(cam);
+    return nh_.subscribe<topic_tools::ShapeShifter>(
+        topic, 10,
+        [this, cam, topic](const topic_tools::ShapeShifter::ConstPtr& m) {
+          if (SensorFrameConstPtr sf = sensorFrameOf(*m)) return onFrame(cam, sf);
+          ROS_ERROR_THROTTLE(10.0,
+                             "pose_estimator: %s: %s carries %s (MD5 %s), not a "
+                             "drill_pipe_pose/SensorFrame of this or the previous definition: "
+                             "frames ignored (every 10 s at most)",
+                             cam.c_str(), topic.c_str(), m->getDataType().c_str(),
+                             m->getMD5Sum().c_str());
+        },
+        ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
   }
 
   /// A camera that sent frames and has gone silent for sync/camera_timeout is subscribed to
@@ -147,8 +160,13 @@ class PoseEstimatorNode {
 
   void onFrame(const std::string& cam, const SensorFrameConstPtr& msg) {
     const int64_t stamp = toNs(msg->header.stamp);
-    const AddResult r = runner_.add(cam, stamp, wallNow(),
-                                     [msg, this] { return fromMsg(msg, cfg_.limits); });
+    const AddResult r = runner_.add(cam, stamp, wallNow(), [msg, this] {
+      SensorFrameData f = fromMsg(msg, cfg_.limits);
+      if (!f.amplitude_refused.empty())
+        ROS_WARN_THROTTLE(10.0, "pose_estimator: %s (every 10 s at most)",
+                          f.amplitude_refused.c_str());
+      return f;
+    });
     if (r.time_jumped_back) {
       ROS_WARN(
           "pose_estimator: %s frame stamped %.3f s is %.1f s older than the last cycle: "

@@ -159,8 +159,15 @@ float brightnessBias(const SensorEffects& fx, float amplitude) {
 // field, when on, comes from its own stream.
 void applyDepthEffects(const SensorEffects& fx, const DepthSceneView& in, double depth_offset,
                        double depth_scale, uint64_t noise_seed, uint64_t interference_seed,
-                       DepthImage* out) {
+                       DepthImage* out, AmplitudeImage* amplitude) {
   const int W = in.width, H = in.height;
+  if (amplitude) *amplitude = AmplitudeImage::allocate(W, H);
+  const float dn_per_a = static_cast<float>(kinect_v2::kDnPerAmplitude);
+  // The returned amplitude [1/m^2] of source pixel s seen at depth z.
+  const auto amplitudeAt = [&](size_t s, float z) {
+    const float rz = in.ray_z && fx.amplitude_by_range ? in.ray_z[s] : 1.0f;
+    return in.reflectivity[s] * in.cos_incidence[s] * rz * rz / (z * z);
+  };
   const DepthEncoding enc =
       fx.quantisation ? DepthEncoding::kU16Millimetres : DepthEncoding::kF32Metres;
   *out = DepthImage::allocate(W, H, enc);
@@ -199,7 +206,10 @@ void applyDepthEffects(const SensorEffects& fx, const DepthSceneView& in, double
       const size_t i = static_cast<size_t>(v) * W + u;
       if (!noisy) {
         const float z = Z[i];
-        if (z > 0 && z >= zmin && z <= zmax) out->setDepth(u, v, z * scale + offset);
+        if (z > 0 && z >= zmin && z <= zmax) {
+          out->setDepth(u, v, z * scale + offset);
+          if (amplitude) amplitude->set(u, v, amplitudeAt(i, z) * dn_per_a);
+        }
         continue;
       }
       const uint64_t bits = rng.next();
@@ -235,8 +245,8 @@ void applyDepthEffects(const SensorEffects& fx, const DepthSceneView& in, double
         }
       }
       if (z < zmin || z > zmax) continue;
-      const float rz = in.ray_z && fx.amplitude_by_range ? in.ray_z[s] : 1.0f;
-      const float a = in.reflectivity[s] * in.cos_incidence[s] * rz * rz / (z * z);
+      const float a = amplitudeAt(s, z);
+      if (amplitude) amplitude->set(u, v, a * dn_per_a);
       const float u01 = ((bits >> 32) & 0xFFFF) * (1.0f / 65536.0f);  // dropout or saturation
       if (dropout_on) {
         const float p_drop = (a_hi - a) * inv_ramp;

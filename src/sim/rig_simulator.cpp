@@ -378,7 +378,8 @@ void RigSimulator::ensureBackground(Camera& cam) {
 // Ray casts the moving objects over the cached static background, then applies the sensor
 // effects (applyDepthEffects) with the frame's random streams.
 void RigSimulator::renderDepth(Camera& cam, size_t index, const SceneSnapshot& snap,
-                               uint64_t frame_index, DepthImage* out) {
+                               uint64_t frame_index, DepthImage* out,
+                               AmplitudeImage* amplitude) {
   ensureBackground(cam);
   const PinholeCamera& dc = cam.sensor.depth;
   const int W = static_cast<int>(dc.imageWidth()), H = static_cast<int>(dc.imageHeight());
@@ -424,7 +425,8 @@ void RigSimulator::renderDepth(Camera& cam, size_t index, const SceneSnapshot& s
   view.ray_z = cam.ray_z.data();
   applyDepthEffects(fx_, view, cam.depth_offset, cam.depth_scale,
                     streamSeed(opt_.seed, kStreamDepthNoise, index, frame_index),
-                    streamSeed(opt_.seed, kStreamInterference, index, frame_index), out);
+                    streamSeed(opt_.seed, kStreamInterference, index, frame_index), out,
+                    amplitude);
 }
 
 // Samples per pixel of a calibration target in the colour image, on distinct sub-rows and
@@ -549,7 +551,8 @@ RigSimulator::Frame RigSimulator::render(size_t camera, double t, uint64_t frame
   sf.depth_info = cam.depth_info;
   sf.depth_stamp_ns = sf.stamp_ns;
   sf.depth_frame_id = conventions::depthOpticalFrame(cam.name);
-  renderDepth(cam, camera, snap, frame_index, &sf.depth);
+  renderDepth(cam, camera, snap, frame_index, &sf.depth,
+              opt_.amplitude ? &sf.amplitude : nullptr);
   if (opt_.color) {
     renderColor(cam, camera, snap, frame_index, &f.bgr);
     f.color_width = cam.sensor.color.imageWidth();

@@ -170,7 +170,7 @@ void readBagContents(rosbag::Bag& bag, const std::string& skip_camera, BagConten
     if (topic == "/tf_static" || topic == "/tf") {
       if (auto msg = m.instantiate<tf2_msgs::TFMessage>())
         for (const auto& t : msg->transforms) out->tf.add(t, topic == "/tf_static");
-    } else if (auto sf = m.instantiate<SensorFrame>()) {
+    } else if (auto sf = sensorFrameOf(m)) {
       if (sf->camera != skip_camera) out->cameras.insert(sf->camera);
     } else {
       for (EndLabel e : {EndLabel::kBoxEnd, EndLabel::kPinEnd})
@@ -521,13 +521,19 @@ int main(int argc, char** argv) {
       for (const CycleOutput& out : outs) tally(out, ms / outs.size(), &t);
     };
     int64_t first_stamp = 0, last_stamp = 0;
+    std::set<std::string> amplitude_refused;  // cameras whose amplitude was refused (told once)
     for (const rosbag::MessageInstance& m : rosbag::View(bag)) {
-      auto sf = m.instantiate<SensorFrame>();
+      auto sf = sensorFrameOf(m);
       if (!sf || sf->camera == opt.skip_camera) continue;
       const int64_t stamp = toNs(sf->header.stamp);
       if (!first_stamp) first_stamp = stamp;
       last_stamp = std::max(last_stamp, stamp);
-      runner.add(sf->camera, stamp, stamp * 1e-9 + 0.010, [sf] { return fromMsg(sf); });
+      runner.add(sf->camera, stamp, stamp * 1e-9 + 0.010, [sf, &amplitude_refused] {
+        SensorFrameData f = fromMsg(sf);
+        if (!f.amplitude_refused.empty() && amplitude_refused.insert(f.camera).second)
+          std::cerr << "bench_estimator: " << f.amplitude_refused << " (first of this camera)\n";
+        return f;
+      });
       poll(stamp * 1e-9 + 0.010);
       if (opt.max_cycles && t.cycles >= opt.max_cycles) break;
     }

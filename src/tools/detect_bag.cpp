@@ -6,7 +6,9 @@
 // the node's frame assembly (detector boxes, depth cropped to them with --crop: the same function
 // as the node, ros/detector_frames.hpp) on every pair and writes the SensorFrames the node would
 // publish (<cam>/sensor_frame, stamped with the colour capture time), copying /tf_static, /tf and
-// /ground_truth/* through. `bench_estimator OUT` then scores the whole chain.
+// /ground_truth/* through. `bench_estimator OUT` then scores the whole chain. The IR amplitude
+// (<cam>/sd/image_ir_rect, the node's amplitude_topic), when recorded, goes into each SensorFrame
+// of the same depth stamp, cropped with its depth.
 //
 //   rosrun drill_pipe_pose detect_bag IN.bag --out OUT.bag [--crop] [--model FILE]
 //       [--config FILE] [--param KEY=VALUE]... [--camera CAM]... [--quiet]
@@ -28,6 +30,8 @@
 #include <tf2_msgs/TFMessage.h>
 
 #include <chrono>
+#include <cmath>
+#include <deque>
 #include <cstdio>
 #include <iostream>
 #include <map>
@@ -203,6 +207,9 @@ class BagDetector {
           "/" + conventions::colorImageTopic(cam), "/" + conventions::colorInfoTopic(cam),
           "/" + conventions::depthImageTopic(cam), "/" + conventions::depthInfoTopic(cam)};
       for (int i = 0; i < 4; ++i) route_[topics[i]] = {cam, i};
+      // The IR amplitude (when recorded): kept by stamp and sent along as the node does.
+      if (!params.amplitude_topic.empty())
+        route_["/" + cam + "/" + params.amplitude_topic] = {cam, kAmplitudeInput};
       colour_topics_.push_back(topics[0]);
       auto& sync = syncs_[cam];
       sync = makeDetectorSync(params.queue_size, params.sync_slop);
@@ -243,6 +250,12 @@ class BagDetector {
                     << ", ...) are left out: the output has the detector's\n";
           replaced_warned = true;
         }
+        continue;
+      }
+      if (r->second.second == kAmplitudeInput) {
+        auto& kept = amplitudes_[r->second.first];
+        kept.push_back(m.instantiate<Image>());
+        if (kept.size() > kAmplitudeKept) kept.pop_front();
         continue;
       }
       DetectorSync& sync = *syncs_[r->second.first];
@@ -295,7 +308,7 @@ class BagDetector {
                 const ImageConstPtr& depth, const CameraInfo& di) {
     std::optional<SensorFrameData> f;
     try {
-      f = det_.process(cam, color, ci, depth, di);
+      f = det_.process(cam, color, ci, depth, di, "/", amplitudeFor(cam, depth));
     } catch (const InputError& e) {  // the node drops such a frame and logs it
       if (++bad_ <= 5)
         std::cerr << "\ndetect_bag: camera " << cam << ", frame stamped " << color->header.stamp
@@ -308,6 +321,15 @@ class BagDetector {
     }
     out_->write("/" + conventions::sensorFrameTopic(cam), color->header.stamp, toMsg(*f));
     ++written_;
+  }
+
+  /// The kept amplitude image of `cam` stamped as `depth` (within 1 ms), or null.
+  ImageConstPtr amplitudeFor(const std::string& cam, const ImageConstPtr& depth) const {
+    const auto it = amplitudes_.find(cam);
+    if (it == amplitudes_.end()) return nullptr;
+    for (auto a = it->second.rbegin(); a != it->second.rend(); ++a)
+      if (*a && std::abs(((*a)->header.stamp - depth->header.stamp).toSec()) <= 1e-3) return *a;
+    return nullptr;
   }
 
   double wallSeconds() const {
@@ -324,6 +346,9 @@ class BagDetector {
   std::map<std::string, std::unique_ptr<DetectorSync>> syncs_;
   std::map<std::string, std::pair<std::string, int>> route_;  ///< topic -> (camera, sync input)
   std::vector<std::string> colour_topics_;
+  static constexpr int kAmplitudeInput = 4;      ///< route_'s input index of the IR topic
+  static constexpr size_t kAmplitudeKept = 16;  ///< per camera, to match by stamp
+  std::map<std::string, std::deque<ImageConstPtr>> amplitudes_;
   size_t total_ = 0, done_ = 0, written_ = 0, skipped_ = 0, bad_ = 0;
   std::chrono::steady_clock::time_point wall0_;
 };

@@ -502,7 +502,7 @@ void score(const Options& o, const std::vector<ImageLabels>& labels, const Writt
   openBag(o.score_against, &bag);
   std::map<std::pair<std::string, int64_t>, std::vector<DetectionBox>> truth;
   for (const rosbag::MessageInstance& m : rosbag::View(bag))
-    if (auto sf = m.instantiate<SensorFrame>()) {
+    if (auto sf = sensorFrameOf(m)) {
       auto& bs = truth[{sf->camera, toNs(sf->header.stamp)}];
       for (const PipeBox& b : sf->boxes) bs.push_back(fromMsg(b, sf->camera));
     }

@@ -8,7 +8,13 @@
 //       [--effect-off EFFECT]... [--model fitted|before-fit|additive] [--true-rig FILE]
 //       [--hd-mono] [--fps N]
 //       [--published-rig FILE] [--detector-model FILE [--detector-param KEY=VALUE]...]
+//       [--no-amplitude] [--grow-box CAM:LABEL:PX]...
 //
+// Each SensorFrame carries the IR amplitude image of its depth (the sensor model's amplitude in
+// the Kinect v2's digital numbers, cropped with the depth; with --color also on
+// <cam>/sd/image_ir_rect); --no-amplitude leaves it out, as a driver without one. --grow-box
+// makes one camera's simulated boxes of one label PX colour pixels taller at the top, in every
+// frame (a biased detector: one camera that must not pull the pose).
 // --crop sends each SensorFrame's depth cropped to its boxes' frustum (roi), as a bandwidth-saving
 // sensor node does: bags are ~100x smaller and the estimator's poses are the same.
 // The bag (LZ4) carries what the estimator needs: <cam>/sensor_frame (SensorFrame, simulated
@@ -109,6 +115,31 @@ tf2_msgs::TFMessage writeStaticTf(const sim::RigSimulator& sim, double start,
   return tf_static;
 }
 
+/// One camera's detections of one label made taller at the top (a biased detector).
+struct BoxGrowth {
+  std::string camera;
+  EndLabel label = EndLabel::kBoxEnd;
+  float top_px = 0.0f;  ///< [colour px] y_min moves up by this
+};
+
+/// "CAM:LABEL:PX" -> a BoxGrowth; throws InputError naming the text.
+BoxGrowth parseBoxGrowth(const std::string& text) {
+  const size_t a = text.find(':'), b = text.rfind(':');
+  if (a == std::string::npos || b == a)
+    fail("--grow-box ", text, ": expected CAM:LABEL:PX, e.g. cam2:box_end:9");
+  BoxGrowth g;
+  g.camera = text.substr(0, a);
+  g.label = parseEndLabel(text.substr(a + 1, b - a - 1), "--grow-box " + text);
+  try {
+    g.top_px = std::stof(text.substr(b + 1));
+  } catch (const std::exception&) {
+    fail("--grow-box ", text, ": PX must be a number of pixels");
+  }
+  if (g.camera.empty() || !(g.top_px >= 0.0f && g.top_px < 1e4f))
+    fail("--grow-box ", text, ": expected a camera name and 0 <= PX < 10000");
+  return g;
+}
+
 struct FrameOptions {
   bool crop = false;     ///< SensorFrames' depth cropped to their boxes' frustum
   bool write_color = false;  ///< the kinect2_bridge-style colour and depth topics too
@@ -117,6 +148,7 @@ struct FrameOptions {
   bool quiet = false;    ///< no progress bar
   bool hd_mono = false;  ///< the calibration's topics instead of SensorFrames
   uint64_t every = 1;    ///< keep every k-th capture of each camera
+  std::vector<BoxGrowth> grow;  ///< detections made taller (--grow-box)
 };
 
 /// Every `every`-th capture of each camera in [start, start + duration).
@@ -138,14 +170,17 @@ std::optional<SensorFrameData> detectRendered(const sim::RigSimulator& sim, size
   const std::string& cam = sim.cameraName(camera);
   sensor_msgs::ImagePtr color, depth;
   const sensor_msgs::CameraInfo *color_info = nullptr, *depth_info = nullptr;
+  sensor_msgs::ImagePtr amplitude;
   for (auto& [topic, img] : k.images)
-    (topic == conventions::colorImageTopic(cam) ? color : depth) =
+    (topic == conventions::colorImageTopic(cam)       ? color
+     : topic == conventions::amplitudeImageTopic(cam) ? amplitude
+                                                      : depth) =
         boost::make_shared<sensor_msgs::Image>(std::move(img));
   for (const auto& [topic, info] : k.infos)
     (topic == conventions::colorInfoTopic(cam) ? color_info : depth_info) = &info;
   if (!color || !depth || !color_info || !depth_info)
     fail("camera ", cam, ": the rendered frame has no colour image (internal error)");
-  return detector->process(cam, color, *color_info, depth, *depth_info);
+  return detector->process(cam, color, *color_info, depth, *depth_info, "", amplitude);
 }
 
 /// Renders the captures in [start, start + duration) into the bag (SensorFrames, cropped with
@@ -159,6 +194,10 @@ size_t writeFrames(sim::RigSimulator& sim, double start, double duration, const 
   size_t done = 0;
   for (const auto& c : captures) {
     sim::RigSimulator::Frame frame = sim.render(c.camera, c.t, c.frame_index);
+    for (const BoxGrowth& g : o.grow)
+      if (g.camera == sim.cameraName(c.camera))
+        for (DetectionBox& b : frame.sensor_frame.boxes)
+          if (b.label == g.label) b.y_min = std::max(0.0f, b.y_min - g.top_px);
     const ros::Time stamp = fromNs(frame.sensor_frame.stamp_ns);
     const std::string& cam = sim.cameraName(c.camera);
     if (o.hd_mono) {
@@ -392,11 +431,19 @@ int main(int argc, char** argv) {
   app.add_flag("--crop", fo.crop,
                "crop each SensorFrame's depth to its boxes' frustum (~100x smaller)");
   app.add_flag("--quiet", fo.quiet, "no progress bar");
+  std::vector<std::string> grow;
+  app.add_option("--grow-box", grow,
+                 "CAM:LABEL:PX: that camera's simulated boxes of that label PX colour pixels "
+                 "taller at the top (a biased detector; repeatable)");
+  app.add_flag_function(
+      "--no-amplitude", [&opt](int64_t) { opt.amplitude = false; },
+      "SensorFrames without the IR amplitude image (as from a driver that publishes none)");
   addDetectorOptions(app, &detector_model, &detector_params);
   addModelOptions(app, &opt, &model_args);
   tools::parseOrExit(app, argc, argv);
   try {
     applyModelArgs(model_args, &opt);
+    for (const std::string& g : grow) fo.grow.push_back(parseBoxGrowth(g));
     if (fo.hd_mono) renderForCalibration(&opt);
     fo.write_color = opt.color;
     std::optional<OfflineDetector> detector;

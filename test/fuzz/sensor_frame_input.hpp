@@ -11,6 +11,8 @@
 //     header (stamp: u32 sec, u32 nsec; frame_id: text), camera: text
 //     color_info: CameraInfo, depth: Image, depth_info: CameraInfo, boxes: Boxes
 //     T_world_depth: Transform, T_color_depth: Transform, correction: u8 mode [+ f64 offset, scale]
+//   then per frame: u8 (bit 0: an amplitude Image follows), so that inputs written before the
+//     amplitude existed read as before (their missing bytes are zeros: no amplitude)
 //   CameraInfo: u8 mode: 0 = every field follows; 1 / 2 = a Kinect v2 depth / colour preset;
 //     3 = the depth preset with the 4 roi dims following.
 //     Fields: header, width dim, height dim, distortion_model text, u8 |D| (mod 9) x f64,
@@ -36,6 +38,7 @@
 #include <vector>
 
 #include "drill_pipe_pose/core/depth_image.hpp"
+#include "drill_pipe_pose/core/errors.hpp"
 #include "drill_pipe_pose/core/sensor_frame.hpp"
 #include "drill_pipe_pose/ros/conversions.hpp"
 #include "fuzz_input.hpp"
@@ -349,6 +352,9 @@ inline FuzzSensorInput decodeSensorInput(const uint8_t* data, size_t size) {
     }
     in.cameras.push_back(std::move(c));
   }
+  // After every frame (inputs written before the amplitude existed end here: no amplitude).
+  for (FuzzCamera& c : in.cameras)
+    if (r.u8() & 1) readImage(r, &c.msg.amplitude);
   return in;
 }
 
@@ -375,6 +381,12 @@ inline std::vector<uint8_t> encodeSensorInput(const FuzzSensorInput& in) {
       w.f64(c.correction.scale);
     }
   }
+  for (size_t f = 0; f < n; ++f) {
+    const sensor_msgs::Image& a = in.cameras[f].msg.amplitude;
+    const bool has = a.width > 0 && a.height > 0;
+    w.u8(has ? 1 : 0);
+    if (has) writeImage(w, a);
+  }
   return w.bytes();
 }
 
@@ -387,6 +399,12 @@ inline SensorFrameData rawFrame(const SensorFrame& msg) {
   f.color_info = fromMsg(msg.color_info);
   f.depth_info = fromMsg(msg.depth_info);
   f.depth = depthFromMsg(msg.depth, msg.camera + " depth");
+  try {  // as it came, even on another grid (the estimator checks it against the depth)
+    f.amplitude = amplitudeFromMsg(boost::make_shared<sensor_msgs::Image>(msg.amplitude),
+                                   msg.camera + " amplitude");
+  } catch (const InputError&) {
+    // an encoding no reader knows: the frame goes without amplitude
+  }
   for (const PipeBox& b : msg.boxes) {
     DetectionBox d;
     d.label = b.label == PipeBox::PIN_END ? EndLabel::kPinEnd : EndLabel::kBoxEnd;

@@ -36,6 +36,10 @@ inline std::string hdInfoTopic(const std::string& cam) {
 inline std::string depthImageTopic(const std::string& cam) {
   return cam + "/sd/image_depth_rect";
 }
+/// The driver's IR amplitude on the depth image's grid (kinect2_bridge), stamped as the depth.
+inline std::string amplitudeImageTopic(const std::string& cam) {
+  return cam + "/sd/image_ir_rect";
+}
 inline std::string depthInfoTopic(const std::string& cam) {
   return cam + "/sd/camera_info";
 }

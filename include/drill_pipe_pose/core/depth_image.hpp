@@ -83,6 +83,47 @@ struct DepthImage {
   void setDepth(uint32_t u, uint32_t v, float z);
 };
 
+/// The IR amplitude image a time-of-flight camera delivers beside its depth (kinect2_bridge:
+/// `sd/image_ir_rect`, 16UC1), on the depth image's grid and crop: pixel (u, v) is the
+/// amplitude of depth pixel (u, v). Optional: an empty one (width 0) means "not available".
+/// Values are the driver's digital numbers [DN]; EstimatorConfig::noise.amplitude_scale turns
+/// them into the amplitude the noise model uses. The data is shared, as DepthImage's.
+struct AmplitudeImage {
+  uint32_t width = 0;   ///< [px]
+  uint32_t height = 0;  ///< [px]
+  bool f32 = false;     ///< 32FC1 (floats) instead of 16UC1 / mono16
+  uint32_t step = 0;    ///< [bytes] per row
+  std::shared_ptr<const uint8_t> data;
+  size_t size = 0;  ///< [bytes] available behind data
+
+  bool empty() const { return width == 0 || height == 0; }
+  /// The amplitude [DN] at pixel (u, v); 0 for a NaN or negative float. No bounds check.
+  float at(uint32_t u, uint32_t v) const {
+    const uint8_t* row = data.get() + static_cast<size_t>(v) * step;
+    if (!f32) {
+      uint16_t dn;
+      std::memcpy(&dn, row + 2 * u, 2);
+      return dn;
+    }
+    float a;
+    std::memcpy(&a, row + 4 * u, 4);
+    return a > 0.0f && a < std::numeric_limits<float>::infinity() ? a : 0.0f;
+  }
+  /// A new zero-filled 16UC1 image owning its data (simulator, tests).
+  static AmplitudeImage allocate(uint32_t width, uint32_t height);
+  /// Writes `dn` at (u, v) of an allocate()d image, rounded and clamped to 0-65535.
+  void set(uint32_t u, uint32_t v, float dn);
+};
+
+/// "16UC1" / "mono16" -> false, "32FC1" -> true (AmplitudeImage::f32); anything else throws
+/// InputError naming `source` and the value.
+bool parseAmplitudeEncoding(const std::string& encoding, const std::string& source);
+
+/// Why `amplitude` cannot be read beside `depth` (its size differs: another grid or crop; its
+/// step or data too short), naming `source` and the field; empty when it can, or is empty.
+std::string amplitudeMismatch(const AmplitudeImage& amplitude, const DepthImage& depth,
+                              const std::string& source);
+
 /// Checks an image against the camera that delivered it: size equal to the camera's (roi-aware)
 /// image size, step >= width * bytes per pixel, data large enough. Throws InputError naming
 /// `source`, the field and the value.

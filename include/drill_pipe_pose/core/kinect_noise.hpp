@@ -47,6 +47,13 @@ struct AmplitudeModel {
   double bias_min_amplitude = 0.0194;  ///< [1/m^2] the bias is held below this (the data's edge)
 };
 
+/// [DN per 1/m^2] the Kinect v2 IR image's digital numbers per unit of amplitude a: the real
+/// recording's bright squares (white paper, reflectivity 0.8) read 32208 DN x cos^1.71 / z^2
+/// (`scripts/sensor_check DATA --fit`, docs/sensor_check.md), so DN = 40260 a. The simulator
+/// renders its IR image with it; the estimator reads amplitudes back with it
+/// (noise/amplitude_scale, another driver's scale there).
+constexpr double kDnPerAmplitude = 40260.0;
+
 /// Noise [m] of a return of amplitude a: sqrt(floor^2 + (C / a)^2).
 inline double amplitudeSigma(const AmplitudeModel& m, double a) {
   const double weak = m.noise_coeff / std::max(a, 1e-6);

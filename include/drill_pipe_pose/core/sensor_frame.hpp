@@ -27,6 +27,10 @@ struct SensorFrameData {
   int64_t depth_stamp_ns = 0;  ///< capture time of the depth image [ns]
   std::string depth_frame_id;  ///< depth optical frame
   DepthImage depth;
+  /// The IR amplitude on the depth image's grid and crop; empty when the camera sends none or
+  /// when it was refused (amplitude_refused says why: the depth is used without it).
+  AmplitudeImage amplitude;
+  std::string amplitude_refused;
   std::vector<DetectionBox> boxes;
 };
 

@@ -1,6 +1,7 @@
 #pragma once
 // Conversions between ROS messages and the ROS-free core types. The only place that knows both.
 
+#include <drill_pipe_pose/LegacySensorFrame.h>
 #include <drill_pipe_pose/PipeBox.h>
 #include <drill_pipe_pose/PipeEnds.h>
 #include <drill_pipe_pose/SensorFrame.h>
@@ -15,6 +16,7 @@
 #include "drill_pipe_pose/core/sensor_frame.hpp"
 
 #include <Eigen/Geometry>
+#include <boost/make_shared.hpp>
 #include <string>
 
 namespace drill_pipe_pose {
@@ -33,6 +35,13 @@ DepthImage depthFromMsg(const sensor_msgs::ImageConstPtr& msg, const std::string
 DepthImage depthFromMsg(const sensor_msgs::Image& msg, const std::string& source);
 sensor_msgs::Image toMsg(const DepthImage& image, int64_t stamp_ns, const std::string& frame_id);
 
+/// Wraps an amplitude image's pixels without copying (empty for a 0 x 0 image). Throws
+/// InputError naming `source` for an unsupported encoding or a big-endian image.
+AmplitudeImage amplitudeFromMsg(const sensor_msgs::ImageConstPtr& msg, const std::string& source);
+/// An empty image gives an empty message (width 0: not available).
+sensor_msgs::Image toMsg(const AmplitudeImage& image, int64_t stamp_ns,
+                         const std::string& frame_id);
+
 DetectionBox fromMsg(const PipeBox& msg, const std::string& source);
 PipeBox toMsg(const DetectionBox& box);
 
@@ -42,6 +51,37 @@ PipeBox toMsg(const DetectionBox& box);
 /// naming the camera and the field. The depth pixels are shared, not copied.
 SensorFrameData fromMsg(const SensorFrameConstPtr& msg, const InputLimits& limits = InputLimits());
 SensorFrame toMsg(const SensorFrameData& frame);
+
+/// A SensorFrame of the definition before the amplitude field, as a current one without
+/// amplitude.
+SensorFrame upgrade(const LegacySensorFrame& old);
+
+/// The SensorFrame in `m` (a rosbag::MessageInstance or a topic_tools::ShapeShifter): the
+/// current definition, or the one before the amplitude field (bags and publishers of older
+/// versions; upgraded, no amplitude). Null when `m` holds neither (another type). Both are
+/// told apart by their MD5 sum, as ROS does.
+template <class Message>
+SensorFrameConstPtr sensorFrameOf(const Message& m) {
+  const std::string md5 = m.getMD5Sum();
+  if (md5 == ros::message_traits::md5sum<SensorFrame>() ||
+      md5 == ros::message_traits::md5sum<LegacySensorFrame>()) {
+    // Deserialised from the bytes: a ShapeShifter's instantiate() also insists on the type's
+    // name, which the older definition shares with the current one.
+    std::vector<uint8_t> buf(m.size());
+    ros::serialization::OStream out(buf.data(), static_cast<uint32_t>(buf.size()));
+    m.write(out);
+    ros::serialization::IStream in(buf.data(), static_cast<uint32_t>(buf.size()));
+    if (md5 == ros::message_traits::md5sum<SensorFrame>()) {
+      auto sf = boost::make_shared<SensorFrame>();
+      ros::serialization::deserialize(in, *sf);
+      return sf;
+    }
+    LegacySensorFrame old;
+    ros::serialization::deserialize(in, old);
+    return boost::make_shared<SensorFrame>(upgrade(old));
+  }
+  return nullptr;
+}
 
 /// The estimate's pose, covariance, residual, points and cameras into `end`.
 void fillPipeEnd(const EndEstimate& e, PipeEnd* end);

@@ -42,7 +42,9 @@ inline std::unique_ptr<DetectorSync> makeDetectorSync(int queue_size, double syn
 /// The SensorFrame of one synchronised set of `camera`'s messages: stamped with the colour
 /// image's capture time, frame ids and CameraInfos from the messages, the depth pixels shared
 /// with `depth`; then detector::assembleSensorFrame (checks, boxes, crop). Throws InputError
-/// naming the source (topic) and the field.
+/// naming the source (topic) and the field. `amplitude` (the driver's IR image of the same
+/// capture, from `amplitude_source`), when given, goes along, cropped as the depth; one that
+/// does not fit the depth is left out and the reason kept in amplitude_refused.
 SensorFrameData detectorFrame(detector::YoloDetector& detector, const std::string& camera,
                               const sensor_msgs::ImageConstPtr& color,
                               const sensor_msgs::CameraInfo& color_info,
@@ -50,7 +52,9 @@ SensorFrameData detectorFrame(detector::YoloDetector& detector, const std::strin
                               const sensor_msgs::CameraInfo& depth_info,
                               const Eigen::Isometry3d* T_color_depth,
                               const detector::FrameAssemblyOptions& options,
-                              const detector::FrameSources& sources, cv::Mat* bgr = nullptr);
+                              const detector::FrameSources& sources, cv::Mat* bgr = nullptr,
+                              const sensor_msgs::ImageConstPtr& amplitude = nullptr,
+                              const std::string& amplitude_source = "amplitude");
 
 /// The pipe_detector node without ROS transport, for every camera of a recording: one detector
 /// (the node's parameters, the same defaults), colour -> depth transforms from the recording's
@@ -67,12 +71,14 @@ class OfflineDetector {
   /// The node's SensorFrame for one synchronised set, or nothing when max_rate skips it. Topics
   /// in errors are kinect2_bridge's under `prefix`. With crop_depth and no TF colour <- depth,
   /// the depth stays full (as in the node) and the camera is listed in camerasWithoutTf().
+  /// `amplitude`: the IR image of the same capture (null: none), as the node's amplitude_topic.
   std::optional<SensorFrameData> process(const std::string& camera,
                                          const sensor_msgs::ImageConstPtr& color,
                                          const sensor_msgs::CameraInfo& color_info,
                                          const sensor_msgs::ImageConstPtr& depth,
                                          const sensor_msgs::CameraInfo& depth_info,
-                                         const std::string& prefix = "/");
+                                         const std::string& prefix = "/",
+                                         const sensor_msgs::ImageConstPtr& amplitude = nullptr);
 
   const PipeDetectorNodeConfig& params() const { return params_; }
   const detector::YoloDetector& detector() const { return detector_; }

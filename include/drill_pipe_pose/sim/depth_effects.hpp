@@ -34,9 +34,14 @@ struct DepthSceneView {
 /// the random streams (the renderer derives them from (seed, camera, frame): streamSeed with
 /// kStreamDepthNoise and kStreamInterference). The random numbers are drawn in a fixed order: a
 /// seed's frames never change.
+/// With `amplitude`, also writes the IR amplitude image a driver publishes beside the depth
+/// (kinect2_bridge's sd/image_ir_rect): each pixel with a return gets its amplitude a, of the
+/// pixel its depth came from, in digital numbers (a x kinect_v2::kDnPerAmplitude, 16UC1); a
+/// pixel whose depth was dropped keeps its amplitude, as a real IR image does. No random draw is
+/// added: a seed's depth frames are the same with or without it.
 void applyDepthEffects(const SensorEffects& fx, const DepthSceneView& in, double depth_offset,
                        double depth_scale, uint64_t noise_seed, uint64_t interference_seed,
-                       DepthImage* out);
+                       DepthImage* out, AmplitudeImage* amplitude = nullptr);
 
 /// Standard deviation [m] of the axial noise at depth z [m], incidence term g2 and returned
 /// amplitude a = reflectivity cos(theta) / z^2 [1/m^2]: Fankhauser's sigma_z (times

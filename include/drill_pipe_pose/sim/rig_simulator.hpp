@@ -52,6 +52,10 @@ struct SimulatorOptions {
   uint32_t seed = 1;                             ///< every random stream derives from it
   bool simulated_detection = true;               ///< fill SensorFrameData::boxes
   bool color = false;                            ///< render the BGR8 colour image too
+  /// Render the IR amplitude image beside the depth (SensorFrameData::amplitude, 16UC1 digital
+  /// numbers of the sensor model's amplitude); false: frames without amplitude, as from a
+  /// driver that publishes none.
+  bool amplitude = true;
   /// Colour image resolution x this (focal lengths and centre x this, colorInfo() too): 2 turns
   /// the Kinect v2's QHD model (960x540) into its HD image (1920x1080, fx = fy = 1081.4,
   /// c = 959.5, 539.5).
@@ -155,7 +159,7 @@ class RigSimulator {
   void applyBumps(Camera& cam, double t);
   void ensureBackground(Camera& cam);
   void renderDepth(Camera& cam, size_t index, const SceneSnapshot& snap, uint64_t frame_index,
-                   DepthImage* out);
+                   DepthImage* out, AmplitudeImage* amplitude);
   void renderColor(Camera& cam, size_t index, const SceneSnapshot& snap, uint64_t frame_index,
                    std::vector<uint8_t>* bgr);
 

@@ -58,6 +58,9 @@ ParamTable<C> makeTable() {
       P("crop_max_range", crop.max_range, "m", atLeast(0),
         "farthest depth a box pixel can have (crop)"),
       P("sync_slop", sync_slop, "s", atLeast(0), "max colour/depth capture-stamp difference"),
+      P("amplitude_topic", amplitude_topic, "", anyValue(),
+        "the driver's IR amplitude on the depth grid, under <cam>/ (kinect2_bridge: "
+        "sd/image_ir_rect); matched to the depth by stamp, sent in the SensorFrame; \"\": none"),
       P("queue_size", queue_size, "", anyValue(),
         "per-topic subscriber queue (small: always the latest frame; < 1 is 1)"),
       P("max_rate", max_rate, "Hz", atLeast(0),

@@ -13,6 +13,9 @@ namespace drill_pipe_pose {
 
 namespace {
 
+/// The Kinect v2's amplitude effects, fitted to the real recording (kinect_noise.hpp).
+const kinect_v2::AmplitudeModel kAmplitude;
+
 /// Throws InputError naming the camera and the transform unless T is a rigid transform: finite,
 /// its rotation orthonormal with determinant +1 (within 1e-3: a rotation from a quaternion
 /// rounded to 4 decimals passes; a transform of arbitrary numbers does not, and its points would
@@ -53,6 +56,9 @@ CycleCamera makeCycleCamera(const SensorFrameData& frame, const Eigen::Isometry3
   // Corrected where read (DepthImage::depthAt): the cut-out, carving's occlusion test and the
   // seen-through pixels all see the true depth, and no pixel is copied.
   cam.image.setCorrection(correction, n + " depth");
+  // An amplitude image that does not fit the depth was refused where the frame was read (the
+  // message's conversion names the camera and the field); here it is simply not used.
+  if (amplitudeMismatch(frame.amplitude, frame.depth, n).empty()) cam.amplitude = frame.amplitude;
   checkRigid(T_world_depth, n, "T_world_depth");
   checkRigid(T_color_depth, n, "T_color_depth");
   cam.T_world_depth = T_world_depth;
@@ -132,6 +138,8 @@ void cutOutCamera(const CycleCamera& cam, uint16_t camera_index, const Estimator
   const double m = config.cutout.box_margin_px;
   const float zmin = config.cutout.min_range, zmax = config.cutout.max_range;
   const float jump = static_cast<float>(config.cutout.edge_jump);
+  const bool with_amplitude = !cam.amplitude.empty() && config.noise.amplitude_model;
+  const double amp_scale = config.noise.amplitude_scale;
   const int W = static_cast<int>(cam.image.width), H = static_cast<int>(cam.image.height);
   for (size_t k = 0; k < cam.boxes.size(); ++k) {
     const DetectionBox& b = cam.boxes[k];
@@ -162,7 +170,26 @@ void cutOutCamera(const CycleCamera& cam, uint16_t camera_index, const Estimator
           const Eigen::Vector3f pw = R_wd * p + t_wd;
           if ((pw.array() < zone_min.array()).any() || (pw.array() > zone_max.array()).any())
             return;
-          dst.push_back({pw, depthSigma(config.noise, p.z()), camera_index});
+          float sigma = depthSigma(config.noise, p.z());
+          if (!with_amplitude) {
+            dst.push_back({pw, sigma, camera_index});
+            return;
+          }
+          const float dn = cam.amplitude.at(u, v);
+          if (!(dn > 0.0f)) {  // no amplitude at this pixel: as without an amplitude image
+            dst.push_back({pw, sigma, camera_index});
+            return;
+          }
+          // The weak-return bias of the measured amplitude, along the depth (the camera reads a
+          // weak return farther), less what the depth calibration removed.
+          const double a = dn / amp_scale;
+          const float bias = static_cast<float>(
+              kinect_v2::weakReturnBias(kAmplitude, a, config.profile_fit.bias_reference));
+          const float z_true = p.z() - bias;
+          if (!(z_true > zmin)) return;
+          const Eigen::Vector3f pc_true = p * (z_true / p.z());
+          const Eigen::Vector3f pw_true = R_wd * pc_true + t_wd;
+          dst.push_back({pw_true, sigma, camera_index});
         });
   }
 }

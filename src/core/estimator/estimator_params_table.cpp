@@ -255,6 +255,12 @@ ParamTable<C> uncertaintyRows() {
       P("noise/scale", noise.scale, "", positive(),
         "depth sigma = scale x (1.5 - 0.5 z + 0.3 z^2) mm"),
       P("noise/min_sigma", noise.min_sigma, "m", positive(), "smallest depth sigma"),
+      P("noise/amplitude_scale", noise.amplitude_scale, "DN m^2", positive(),
+        "amplitude image value per unit of returned amplitude (reflectivity cos / range^2); "
+        "40260: Kinect v2 through kinect2_bridge"),
+      P("noise/amplitude_model", noise.amplitude_model, "", anyValue(),
+        "take each pixel's weak-return bias out of its depth, from the frame's amplitude "
+        "(docs/measurement_model.md); false: amplitude ignored"),
 
       P("covariance/inflation", covariance.inflation, "", positive(),
         "factor on Hessian^-1 x reduced chi^2 (correlated noise)"),

@@ -103,6 +103,16 @@ struct PoseEstimator::Impl {
   RadiusModelCache radius_models;  ///< models of any joint radius, for the radius search
   std::map<std::pair<int, int>, std::unique_ptr<EndModels>> model_sets;
   EstimatorState state;
+  /// The configuration with profile_fit.reflectivity 0 (the cycles whose frames carry their
+  /// amplitude), made on first use.
+  const EstimatorConfig& withoutPredictedBias(const EstimatorConfig& config) {
+    if (!measured_config) {
+      measured_config = std::make_unique<EstimatorConfig>(config);
+      measured_config->profile_fit.reflectivity = 0.0;
+    }
+    return *measured_config;
+  }
+  std::unique_ptr<EstimatorConfig> measured_config;
 };
 
 namespace {
@@ -1093,41 +1103,52 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
     return result;
   }
 
-  const std::vector<CycleCamera> left_out = takeLeftOut(&cams, state.drift, config_.drift);
+  // Frames that carry their amplitude had their weak-return bias corrected at the cut-out
+  // (cutOutCamera): the final fit's predicted correction (profile_fit.reflectivity, for frames
+  // without one) must not apply it again. In a cycle where any camera carries amplitude, that
+  // fallback is off for all of them.
+  const bool measured =
+      config_.noise.amplitude_model &&
+      std::any_of(cams.begin(), cams.end(),
+                  [](const CycleCamera& c) { return !c.amplitude.empty(); });
+  const EstimatorConfig& config =
+      measured && config_.profile_fit.reflectivity > 0 ? impl_->withoutPredictedBias(config_)
+                                                       : config_;
+  const std::vector<CycleCamera> left_out = takeLeftOut(&cams, state.drift, config.drift);
 
   // Cut-out.
   auto t0 = Clock::now();
   std::array<std::vector<CloudPoint>, kNumEnds> raw;
   for (size_t c = 0; c < cams.size(); ++c)
-    cutOutCamera(cams[c], static_cast<uint16_t>(c), config_, &raw);
+    cutOutCamera(cams[c], static_cast<uint16_t>(c), config, &raw);
   result.timing.cutout_ms = msSince(t0);
 
   // Carving (fusion).
   t0 = Clock::now();
   std::array<std::vector<CloudPoint>, kNumEnds> carved;
   for (int l = 0; l < kNumEnds; ++l)
-    carved[l] = carve(raw[l], static_cast<EndLabel>(l), cams, config_.carving);
+    carved[l] = carve(raw[l], static_cast<EndLabel>(l), cams, config.carving);
   for (int l = 0; l < kNumEnds; ++l)
     for (const auto& p : carved[l]) result.fused.push_back(p.p_world);
   result.timing.fusion_ms = msSince(t0);
 
   // Instances, axis fit, hypotheses, refinement: per label (in parallel with threads >= 2;
   // the labels share nothing they write).
-  const EndModels& models = impl_->models(config_);
+  const EndModels& models = impl_->models(config);
   // The models of the types this cycle's fits use: the labels' and each other end's own (built
   // here, before the labels are fitted in parallel, which only look them up).
   const std::array<int, kNumEnds> fit_types{{state.types[0].type, state.types[1].type}};
   std::vector<const EndModels*> type_models(impl_->candidates.size(), nullptr);
   const auto need = [&](int t) {
     if (t >= 0 && !type_models[static_cast<size_t>(t)])
-      type_models[static_cast<size_t>(t)] = &impl_->modelsOf(config_, t, t);
+      type_models[static_cast<size_t>(t)] = &impl_->modelsOf(config, t, t);
   };
   for (int l = 0; l < kNumEnds; ++l) {
     need(fit_types[l]);
     for (const OtherEnd& o : state.labels[l].others) need(o.type);
   }
-  const CycleContext ctx{config_, models, cams, stamp_ns,
-                         boxDecides(cams, state.labels[0].track, stamp_ns, config_.tracking),
+  const CycleContext ctx{config, models, cams, stamp_ns,
+                         boxDecides(cams, state.labels[0].track, stamp_ns, config.tracking),
                          &type_models};
   std::array<Candidate, kNumEnds> cand;
   std::array<LabelTiming, kNumEnds> timing;
@@ -1136,7 +1157,7 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
     cand[l] = fitLabel(ctx, l, raw[l], carved[l], &state.labels[l], &timing[l],
                        &result.instances[l], &other_fits[l]);
   };
-  if (config_.threads >= 2) {
+  if (config.threads >= 2) {
     auto other = std::async(std::launch::async, fitOne, 1);
     fitOne(0);
     other.get();
@@ -1146,28 +1167,28 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
   result.timing.segmentation_ms = timing[0].segmentation_ms + timing[1].segmentation_ms;
   result.timing.registration_ms = timing[0].registration_ms + timing[1].registration_ms;
 
-  choosePrimaryPair(&cand, &other_fits, state.types, config_);
-  const std::array<bool, kNumEnds> held = holdLabelFlips(&cand, &state.labels, stamp_ns, config_);
-  updateTracks(cand, held, &state.labels, stamp_ns, config_.tracking);
-  const std::array<int, kNumEnds> owner = assignEnds(cand, config_.instances.track_gate);
+  choosePrimaryPair(&cand, &other_fits, state.types, config);
+  const std::array<bool, kNumEnds> held = holdLabelFlips(&cand, &state.labels, stamp_ns, config);
+  updateTracks(cand, held, &state.labels, stamp_ns, config.tracking);
+  const std::array<int, kNumEnds> owner = assignEnds(cand, config.instances.track_gate);
   for (int slot = 0; slot < kNumEnds; ++slot) {
     const Candidate* cd = owner[slot] < 0 ? nullptr : &cand[owner[slot]];
     if (!cd)
-      measureRejectedEnd(slot, cand[slot], impl_->candidates, config_, &impl_->radius_models,
+      measureRejectedEnd(slot, cand[slot], impl_->candidates, config, &impl_->radius_models,
                          state.types[1 - slot], &state.types[slot], &state.filters[slot]);
-    outputEnd(slot, cd, cand, cams, stamp_ns, &state.filters[slot], config_, &result);
-    classifyEnd(slot, cd, models, impl_->candidates, stamp_ns, config_,
-                &impl_->radius_models, state.labels, pairedRadii(slot, state, stamp_ns, config_),
+    outputEnd(slot, cd, cand, cams, stamp_ns, &state.filters[slot], config, &result);
+    classifyEnd(slot, cd, models, impl_->candidates, stamp_ns, config,
+                &impl_->radius_models, state.labels, pairedRadii(slot, state, stamp_ns, config),
                 &state.types[slot],
                 &state.filters[slot],
                 &state.next_id, &result.ends[slot]);
   }
-  withholdEndsOnOneJoint(stamp_ns, config_, &state, &result.ends);
-  shareConnectionType(&state.types, &state.filters, config_.typing);
+  withholdEndsOnOneJoint(stamp_ns, config, &state, &result.ends);
+  shareConnectionType(&state.types, &state.filters, config.typing);
   outputOthers(&other_fits, &state, type_models, fit_types, impl_->candidates,
-               &impl_->radius_models, cams, stamp_ns, config_, &result);
-  if (config_.drift.enabled)
-    watchDrift(cams, left_out, raw, cand, owner, models, stamp_ns, config_, &state.drift,
+               &impl_->radius_models, cams, stamp_ns, config, &result);
+  if (config.drift.enabled)
+    watchDrift(cams, left_out, raw, cand, owner, models, stamp_ns, config, &state.drift,
                &result);
   result.timing.total_ms = msSince(t_start);
   return result;

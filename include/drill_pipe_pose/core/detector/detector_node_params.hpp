@@ -21,6 +21,10 @@ struct PipeDetectorNodeConfig {
   bool crop_depth = false;  ///< send depth cropped to the boxes' frustum
   DepthCropConfig crop;
   double sync_slop = 0.02;  ///< [s] max colour/depth stamp difference
+  /// The driver's IR amplitude image on the depth image's grid, relative to the node's
+  /// namespace as the other topics ("<cam>/" prefixed); "" : none. Matched to the depth by
+  /// capture stamp (kinect2_bridge stamps both of one frame alike).
+  std::string amplitude_topic = "sd/image_ir_rect";
   int queue_size = 2;       ///< per-topic subscriber queue
   double max_rate = 0.0;    ///< [Hz] of capture time; 0: every frame
   double tf_timeout = 0.05;  ///< [s]

@@ -29,6 +29,7 @@ struct CycleCamera {
   PinholeCamera depth;
   PinholeCamera color;
   DepthImage image;
+  AmplitudeImage amplitude;  ///< on image's grid; empty when the frame carries none
   Eigen::Isometry3d T_world_depth = Eigen::Isometry3d::Identity();
   Eigen::Isometry3d T_color_depth = Eigen::Isometry3d::Identity();
   Eigen::Isometry3d T_color_world = Eigen::Isometry3d::Identity();  ///< derived
@@ -62,6 +63,7 @@ void cutOutCamera(const CycleCamera& cam, uint16_t camera_index, const Estimator
 
 /// Depth noise std [m] at depth z [m] (config.noise).
 float depthSigma(const EstimatorConfig::Noise& noise, double z);
+
 
 /// The depth noise's growth [m] toward grazing incidence (the Kinect v2 model's incidence term,
 /// Fankhauser et al. 2015): coefficient_mm x range^1.5 x (theta / (pi/2 - theta))^2 mm, theta
