@@ -616,3 +616,40 @@ TEST(EstimatorSim, HandlingPointChoosesThePrimaryEnd) {
   EXPECT_GE(stump_as_other, cycles / 2) << "seed " << seed << ": the stump's box end, as an other";
   EXPECT_EQ(primary_ids.size(), 1u) << "seed " << seed << ": the primary keeps one id";
 }
+
+TEST(EstimatorSim, OneCamerasBoxEndBoxedTooTallDoesNotPullThePose) {
+  // A biased detector: one camera's box_end boxes 9 px taller at the top in every frame (a
+  // fine-tuned model once did this, and that camera's points pulled the box end 25.7 mm up its
+  // axis). thesis_vertical, seed 420, 45 cycles, cam1 and cam4 in turn (scripts/bench_pose_effects
+  // runs all six cameras for 10 s each, simulate_bag --grow-box CAM:box_end:9): the box end stays
+  // within 8 mm on average.
+  const uint32_t seed = 420;
+  for (size_t biased : {0, 3}) {
+    auto simulator = makeSimulator("thesis_vertical", seed);
+    PoseEstimator est(configIn(*simulator));
+    std::vector<PoseError> errors;
+    std::vector<Eigen::Vector3d> positions;
+    const int cycles = 45;
+    for (int k = 0; k < cycles; ++k) {
+      std::vector<CameraInput> inputs = renderCycle(*simulator, k);
+      double t_last = 0;
+      for (size_t i = 0; i < inputs.size(); ++i)
+        t_last = std::max(t_last, simulator->captureTime(i, k));
+      for (DetectionBox& b : inputs[biased].frame.boxes)
+        if (b.label == EndLabel::kBoxEnd) b.y_min = std::max(0.0f, b.y_min - 9.0f);
+      const CycleResult r = est.process(inputs);
+      for (const auto& truth : simulator->groundTruth(t_last)) {
+        const EndEstimate& e = r.ends[static_cast<int>(truth.label)];
+        if (truth.label != EndLabel::kBoxEnd || !e.valid) continue;
+        errors.push_back(poseError(truth.T_world_end, e.T_world_end));
+        positions.push_back(e.T_world_end.translation());
+      }
+    }
+    const ErrorStats st = computeStats(errors, positions, cycles);
+    std::printf("seed %u, %s's box end boxed 9 px taller: box end %zu of %d valid, mean %.1f mm\n",
+                seed, simulator->cameraName(biased).c_str(), st.estimates, cycles,
+                st.mean_position_error * 1e3);
+    EXPECT_GE(st.estimates, 40u) << "seed " << seed << ", camera " << biased;
+    EXPECT_LT(st.mean_position_error, 0.008) << "seed " << seed << ", camera " << biased;
+  }
+}
