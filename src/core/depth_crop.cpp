@@ -50,8 +50,8 @@ SensorFrameData cropDepthToBoxes(const SensorFrameData& frame,
     a.f32 = frame.amplitude.f32;
     a.step = static_cast<uint32_t>(a.width * abpp);
     a.size = static_cast<size_t>(a.step) * a.height;
-    auto buf =
-        std::shared_ptr<uint8_t>(new uint8_t[std::max<size_t>(a.size, 1)](), std::default_delete<uint8_t[]>());
+    auto buf = std::shared_ptr<uint8_t>(new uint8_t[std::max<size_t>(a.size, 1)](),
+                                        std::default_delete<uint8_t[]>());
     if (!empty)
       for (int v = v0; v < v1; ++v)
         std::memcpy(buf.get() + static_cast<size_t>(v - v0) * a.step,
