@@ -74,6 +74,17 @@ drill_pipe_pose::SensorFrame sampleSensorFrame(const std::string& camera, unsign
   return f;
 }
 
+drill_pipe_pose::LegacySensorFrame legacyOf(const drill_pipe_pose::SensorFrame& frame) {
+  drill_pipe_pose::LegacySensorFrame old;
+  old.header = frame.header;
+  old.camera = frame.camera;
+  old.color_info = frame.color_info;
+  old.depth = frame.depth;
+  old.depth_info = frame.depth_info;
+  old.boxes = frame.boxes;
+  return old;
+}
+
 std::vector<uint8_t> serialize(const drill_pipe_pose::SensorFrame& msg) {
   const uint32_t n = ros::serialization::serializationLength(msg);
   std::vector<uint8_t> buf(n);

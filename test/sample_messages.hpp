@@ -1,5 +1,6 @@
 #pragma once
 // Deterministic sample messages shared by the conversion tests and the transport rostest.
+#include <drill_pipe_pose/LegacySensorFrame.h>
 #include <drill_pipe_pose/SensorFrame.h>
 
 #include <vector>
@@ -10,6 +11,10 @@ namespace drill_pipe_pose_test {
 /// roi (depth encoding `encoding`), pseudo-random depth from `seed`, two boxes.
 drill_pipe_pose::SensorFrame sampleSensorFrame(const std::string& camera, unsigned seed,
                                                const std::string& encoding = "16UC1");
+
+/// `frame` as the definition before the amplitude field sent it (its amplitude dropped): what an
+/// older bag or sensor node holds.
+drill_pipe_pose::LegacySensorFrame legacyOf(const drill_pipe_pose::SensorFrame& frame);
 
 /// Serialised bytes of a message (for exact comparison after transport).
 std::vector<uint8_t> serialize(const drill_pipe_pose::SensorFrame& msg);

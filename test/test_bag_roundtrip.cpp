@@ -84,13 +84,7 @@ TEST(SimulateBag, ABagOfTheDefinitionBeforeAmplitudeStillReads) {
   // What a bag recorded before SensorFrame's amplitude field holds: the older definition's MD5.
   const std::string bag_path = testing::TempDir() + "dpp_legacy.bag";
   const SensorFrame now = drill_pipe_pose_test::sampleSensorFrame("cam2", 9);
-  LegacySensorFrame old;
-  old.header = now.header;
-  old.camera = now.camera;
-  old.color_info = now.color_info;
-  old.depth = now.depth;
-  old.depth_info = now.depth_info;
-  old.boxes = now.boxes;
+  const LegacySensorFrame old = drill_pipe_pose_test::legacyOf(now);
   {
     rosbag::Bag bag(bag_path, rosbag::bagmode::Write);
     bag.write("/cam2/sensor_frame", ros::Time(5), old);

@@ -195,13 +195,7 @@ TEST(ConversionsBadInput, AmplitudeOfAnotherSizeOrEncodingIsRefusedButTheDepthIs
 TEST(Conversions, AFrameOfTheDefinitionBeforeAmplitudeReadsWithoutIt) {
   // A bag or a publisher of the older definition: the same fields but the amplitude.
   const SensorFrame now = sampleSensorFrame("cam3", 7);
-  LegacySensorFrame old;
-  old.header = now.header;
-  old.camera = now.camera;
-  old.color_info = now.color_info;
-  old.depth = now.depth;
-  old.depth_info = now.depth_info;
-  old.boxes = now.boxes;
+  const LegacySensorFrame old = drill_pipe_pose_test::legacyOf(now);
   EXPECT_NE(std::string(ros::message_traits::md5sum<LegacySensorFrame>()),
             std::string(ros::message_traits::md5sum<SensorFrame>()));
   EXPECT_EQ(serialize(upgrade(old)), serialize(now));
@@ -210,13 +204,7 @@ TEST(Conversions, AFrameOfTheDefinitionBeforeAmplitudeReadsWithoutIt) {
 TEST(Conversions, TheNodeTellsBothDefinitionsApartOnTheWire) {
   // What the estimator node's subscription gets: a ShapeShifter of whatever the publisher sent.
   const SensorFrame now = withAmplitude(sampleSensorFrame("cam5", 2));
-  LegacySensorFrame old;
-  old.header = now.header;
-  old.camera = now.camera;
-  old.color_info = now.color_info;
-  old.depth = now.depth;
-  old.depth_info = now.depth_info;
-  old.boxes = now.boxes;
+  const LegacySensorFrame old = drill_pipe_pose_test::legacyOf(now);
   const auto shifted = [](const auto& m) {
     using M = std::decay_t<decltype(m)>;
     std::vector<uint8_t> b(ros::serialization::serializationLength(m));

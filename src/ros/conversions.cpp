@@ -100,6 +100,20 @@ AmplitudeImage amplitudeFromMsg(const sensor_msgs::ImageConstPtr& msg, const std
   return a;
 }
 
+void attachAmplitude(const sensor_msgs::ImageConstPtr& amplitude, const std::string& source,
+                     SensorFrameData* frame) {
+  frame->amplitude = AmplitudeImage();
+  frame->amplitude_refused.clear();
+  if (!amplitude) return;
+  try {
+    const AmplitudeImage a = amplitudeFromMsg(amplitude, source);
+    frame->amplitude_refused = amplitudeMismatch(a, frame->depth, source);
+    if (frame->amplitude_refused.empty()) frame->amplitude = a;
+  } catch (const InputError& e) {
+    frame->amplitude_refused = std::string(e.what()) + ": amplitude ignored, depth used without it";
+  }
+}
+
 sensor_msgs::Image toMsg(const AmplitudeImage& image, int64_t stamp_ns,
                          const std::string& frame_id) {
   sensor_msgs::Image m;
@@ -176,16 +190,7 @@ SensorFrameData fromMsg(const SensorFrameConstPtr& msg, const InputLimits& limit
   const sensor_msgs::ImageConstPtr depth_ptr(msg, &msg->depth);
   f.depth = depthFromMsg(depth_ptr, cam + " depth");
   validateDepthImage(f.depth, depth_cam, cam + " depth");
-  // The amplitude is optional: one that cannot be read beside the depth is refused with its
-  // reason (the caller logs it), and the depth is used without it.
-  try {
-    const sensor_msgs::ImageConstPtr amp_ptr(msg, &msg->amplitude);
-    f.amplitude = amplitudeFromMsg(amp_ptr, cam + " amplitude");
-    f.amplitude_refused = amplitudeMismatch(f.amplitude, f.depth, cam);
-  } catch (const InputError& e) {
-    f.amplitude_refused = std::string(e.what()) + ": amplitude ignored, depth used without it";
-  }
-  if (!f.amplitude_refused.empty()) f.amplitude = AmplitudeImage();
+  attachAmplitude(sensor_msgs::ImageConstPtr(msg, &msg->amplitude), cam + " amplitude", &f);
   f.boxes.reserve(msg->boxes.size());
   for (size_t i = 0; i < msg->boxes.size(); ++i)
     f.boxes.push_back(fromMsg(msg->boxes[i], cam + " boxes[" + std::to_string(i) + "]"));

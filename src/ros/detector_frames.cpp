@@ -4,7 +4,6 @@
 
 #include <tf2/exceptions.h>
 
-#include "drill_pipe_pose/core/errors.hpp"
 #include "drill_pipe_pose/core/frame_sync.hpp"
 #include "drill_pipe_pose/ros/conversions.hpp"
 
@@ -29,15 +28,7 @@ SensorFrameData detectorFrame(detector::YoloDetector& detector, const std::strin
   f.depth_stamp_ns = toNs(depth->header.stamp);
   f.depth_frame_id = depth->header.frame_id;
   f.depth = depthFromMsg(depth, sources.depth);
-  if (amplitude) {
-    try {
-      f.amplitude = amplitudeFromMsg(amplitude, amplitude_source);
-      f.amplitude_refused = amplitudeMismatch(f.amplitude, f.depth, amplitude_source);
-    } catch (const InputError& e) {
-      f.amplitude_refused = std::string(e.what()) + ": amplitude ignored, depth used without it";
-    }
-    if (!f.amplitude_refused.empty()) f.amplitude = AmplitudeImage();
-  }
+  attachAmplitude(amplitude, amplitude_source, &f);
   detector::ColorPixels pixels;
   pixels.encoding = color->encoding;
   pixels.width = color->width;

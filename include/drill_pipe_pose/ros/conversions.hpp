@@ -38,6 +38,12 @@ sensor_msgs::Image toMsg(const DepthImage& image, int64_t stamp_ns, const std::s
 /// Wraps an amplitude image's pixels without copying (empty for a 0 x 0 image). Throws
 /// InputError naming `source` for an unsupported encoding or a big-endian image.
 AmplitudeImage amplitudeFromMsg(const sensor_msgs::ImageConstPtr& msg, const std::string& source);
+/// Reads `amplitude` (null or 0 x 0: none) into frame->amplitude beside frame->depth (already
+/// read). One that cannot be read there (encoding, big-endian, another size or crop, short data)
+/// is left out and frame->amplitude_refused says why, naming `source`: the depth is used without
+/// it. The pixels are shared with the message.
+void attachAmplitude(const sensor_msgs::ImageConstPtr& amplitude, const std::string& source,
+                     SensorFrameData* frame);
 /// An empty image gives an empty message (width 0: not available).
 sensor_msgs::Image toMsg(const AmplitudeImage& image, int64_t stamp_ns,
                          const std::string& frame_id);
