@@ -24,6 +24,20 @@ bool depthCropRect(const CycleCamera& cam, const DepthCropConfig& config,
   return true;
 }
 
+namespace {
+
+/// Copies the pixels [u0, u1) x [v0, v1) of `rect` (bpp bytes each) from an image with rows of
+/// src_step bytes into one with rows of dst_step bytes.
+void copyRect(const uint8_t* src, size_t src_step, size_t bpp, const std::array<int, 4>& rect,
+              uint8_t* dst, size_t dst_step) {
+  const auto [u0, v0, u1, v1] = rect;
+  for (int v = v0; v < v1; ++v)
+    std::memcpy(dst + static_cast<size_t>(v - v0) * dst_step,
+                src + static_cast<size_t>(v) * src_step + u0 * bpp, (u1 - u0) * bpp);
+}
+
+}  // namespace
+
 SensorFrameData cropDepthToBoxes(const SensorFrameData& frame,
                                  const Eigen::Isometry3d& T_color_depth,
                                  const DepthCropConfig& config) {
@@ -33,35 +47,17 @@ SensorFrameData cropDepthToBoxes(const SensorFrameData& frame,
   const bool empty = !depthCropRect(cam, config, &r);
   const int u0 = r[0], v0 = r[1], u1 = r[2], v1 = r[3];
   SensorFrameData out = frame;
-  const size_t bpp = bytesPerPixel(frame.depth.encoding);
-  DepthImage crop = DepthImage::allocate(u1 - u0, v1 - v0, frame.depth.encoding);
+  out.depth = DepthImage::allocate(u1 - u0, v1 - v0, frame.depth.encoding);
   if (!empty)
-    for (int v = v0; v < v1; ++v)
-      std::memcpy(crop.mutableData() + static_cast<size_t>(v - v0) * crop.step,
-                  frame.depth.data.get() + static_cast<size_t>(v) * frame.depth.step + u0 * bpp,
-                  (u1 - u0) * bpp);
-  out.depth = crop;
+    copyRect(frame.depth.data.get(), frame.depth.step, bytesPerPixel(frame.depth.encoding), r,
+             out.depth.mutableData(), out.depth.step);
   // The amplitude, on the depth's grid, is cropped to the same rectangle.
+  out.amplitude = AmplitudeImage();
   if (!frame.amplitude.empty() && amplitudeMismatch(frame.amplitude, frame.depth, "").empty()) {
-    const size_t abpp = frame.amplitude.f32 ? 4 : 2;
-    AmplitudeImage a;
-    a.width = u1 - u0;
-    a.height = v1 - v0;
-    a.f32 = frame.amplitude.f32;
-    a.step = static_cast<uint32_t>(a.width * abpp);
-    a.size = static_cast<size_t>(a.step) * a.height;
-    auto buf = std::shared_ptr<uint8_t>(new uint8_t[std::max<size_t>(a.size, 1)](),
-                                        std::default_delete<uint8_t[]>());
+    out.amplitude = AmplitudeImage::allocate(u1 - u0, v1 - v0, frame.amplitude.f32);
     if (!empty)
-      for (int v = v0; v < v1; ++v)
-        std::memcpy(buf.get() + static_cast<size_t>(v - v0) * a.step,
-                    frame.amplitude.data.get() + static_cast<size_t>(v) * frame.amplitude.step +
-                        u0 * abpp,
-                    (u1 - u0) * abpp);
-    a.data = buf;
-    out.amplitude = a;
-  } else {
-    out.amplitude = AmplitudeImage();
+      copyRect(frame.amplitude.data.get(), frame.amplitude.step, frame.amplitude.bytesPerPixel(), r,
+               out.amplitude.mutableData(), out.amplitude.step);
   }
   out.depth_info.roi.x_offset = cam.depth.offsetX() + u0;
   out.depth_info.roi.y_offset = cam.depth.offsetY() + v0;

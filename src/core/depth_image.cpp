@@ -51,11 +51,12 @@ void DepthImage::setCorrection(const DepthCorrection& c, const std::string& sour
   correction_gain = static_cast<float>(1.0 / c.scale);
 }
 
-AmplitudeImage AmplitudeImage::allocate(uint32_t width, uint32_t height) {
+AmplitudeImage AmplitudeImage::allocate(uint32_t width, uint32_t height, bool f32) {
   AmplitudeImage img;
   img.width = width;
   img.height = height;
-  img.step = width * 2;
+  img.f32 = f32;
+  img.step = static_cast<uint32_t>(width * img.bytesPerPixel());
   img.size = static_cast<size_t>(img.step) * height;
   img.data = std::shared_ptr<uint8_t>(new uint8_t[img.size](), std::default_delete<uint8_t[]>());
   return img;
@@ -64,7 +65,7 @@ AmplitudeImage AmplitudeImage::allocate(uint32_t width, uint32_t height) {
 void AmplitudeImage::set(uint32_t u, uint32_t v, float dn) {
   const float c = std::clamp(std::round(dn), 0.0f, 65535.0f);
   const uint16_t x = c == c ? static_cast<uint16_t>(c) : 0;
-  std::memcpy(const_cast<uint8_t*>(data.get()) + static_cast<size_t>(v) * step + 2 * u, &x, 2);
+  std::memcpy(mutableData() + static_cast<size_t>(v) * step + 2 * u, &x, 2);
 }
 
 bool parseAmplitudeEncoding(const std::string& encoding, const std::string& source) {
@@ -84,7 +85,7 @@ std::string amplitudeMismatch(const AmplitudeImage& amplitude, const DepthImage&
       << " (another grid or crop): amplitude ignored, depth used without it";
     return s.str();
   }
-  const size_t bpp = amplitude.f32 ? 4 : 2;
+  const size_t bpp = amplitude.bytesPerPixel();
   if (amplitude.step < amplitude.width * bpp) {
     s << source << ": amplitude image step = " << amplitude.step << " bytes is less than width * "
       << bpp << ": amplitude ignored, depth used without it";

@@ -3,6 +3,7 @@
 #include <tf2_eigen/tf2_eigen.h>
 
 #include <algorithm>
+#include <utility>
 
 #include "drill_pipe_pose/core/errors.hpp"
 
@@ -210,14 +211,14 @@ SensorFrame toMsg(const SensorFrameData& f) {
   return m;
 }
 
-SensorFrame upgrade(const LegacySensorFrame& old) {
+SensorFrame upgrade(LegacySensorFrame old) {
   SensorFrame m;
-  m.header = old.header;
-  m.camera = old.camera;
-  m.color_info = old.color_info;
-  m.depth = old.depth;
-  m.depth_info = old.depth_info;
-  m.boxes = old.boxes;
+  m.header = std::move(old.header);
+  m.camera = std::move(old.camera);
+  m.color_info = std::move(old.color_info);
+  m.depth = std::move(old.depth);
+  m.depth_info = std::move(old.depth_info);
+  m.boxes = std::move(old.boxes);
   return m;  // amplitude: empty, not available
 }
 

@@ -97,6 +97,7 @@ struct AmplitudeImage {
   size_t size = 0;  ///< [bytes] available behind data
 
   bool empty() const { return width == 0 || height == 0; }
+  size_t bytesPerPixel() const { return f32 ? 4 : 2; }
   /// The amplitude [DN] at pixel (u, v); 0 for a NaN or negative float. No bounds check.
   float at(uint32_t u, uint32_t v) const {
     const uint8_t* row = data.get() + static_cast<size_t>(v) * step;
@@ -109,9 +110,11 @@ struct AmplitudeImage {
     std::memcpy(&a, row + 4 * u, 4);
     return a > 0.0f && a < std::numeric_limits<float>::infinity() ? a : 0.0f;
   }
-  /// A new zero-filled 16UC1 image owning its data (simulator, tests).
-  static AmplitudeImage allocate(uint32_t width, uint32_t height);
-  /// Writes `dn` at (u, v) of an allocate()d image, rounded and clamped to 0-65535.
+  /// A new zero-filled image owning its data, 16UC1 (or 32FC1 with f32).
+  static AmplitudeImage allocate(uint32_t width, uint32_t height, bool f32 = false);
+  /// Writable access for images made with allocate().
+  uint8_t* mutableData() { return const_cast<uint8_t*>(data.get()); }
+  /// Writes `dn` at (u, v) of an allocate()d 16UC1 image, rounded and clamped to 0-65535.
   void set(uint32_t u, uint32_t v, float dn);
 };
 

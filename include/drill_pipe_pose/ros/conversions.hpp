@@ -18,6 +18,8 @@
 #include <Eigen/Geometry>
 #include <boost/make_shared.hpp>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace drill_pipe_pose {
 
@@ -60,7 +62,7 @@ SensorFrame toMsg(const SensorFrameData& frame);
 
 /// A SensorFrame of the definition before the amplitude field, as a current one without
 /// amplitude.
-SensorFrame upgrade(const LegacySensorFrame& old);
+SensorFrame upgrade(LegacySensorFrame old);
 
 /// The SensorFrame in `m` (a rosbag::MessageInstance or a topic_tools::ShapeShifter): the
 /// current definition, or the one before the amplitude field (bags and publishers of older
@@ -69,24 +71,19 @@ SensorFrame upgrade(const LegacySensorFrame& old);
 template <class Message>
 SensorFrameConstPtr sensorFrameOf(const Message& m) {
   const std::string md5 = m.getMD5Sum();
-  if (md5 == ros::message_traits::md5sum<SensorFrame>() ||
-      md5 == ros::message_traits::md5sum<LegacySensorFrame>()) {
-    // Deserialised from the bytes: a ShapeShifter's instantiate() also insists on the type's
-    // name, which the older definition shares with the current one.
-    std::vector<uint8_t> buf(m.size());
-    ros::serialization::OStream out(buf.data(), static_cast<uint32_t>(buf.size()));
-    m.write(out);
-    ros::serialization::IStream in(buf.data(), static_cast<uint32_t>(buf.size()));
-    if (md5 == ros::message_traits::md5sum<SensorFrame>()) {
-      auto sf = boost::make_shared<SensorFrame>();
-      ros::serialization::deserialize(in, *sf);
-      return sf;
-    }
-    LegacySensorFrame old;
-    ros::serialization::deserialize(in, old);
-    return boost::make_shared<SensorFrame>(upgrade(old));
-  }
-  return nullptr;
+  // The current definition straight from the message's own buffer (the node's per-frame path).
+  if (md5 == ros::message_traits::md5sum<SensorFrame>())
+    return m.template instantiate<SensorFrame>();
+  if (md5 != ros::message_traits::md5sum<LegacySensorFrame>()) return nullptr;
+  // The older definition from its bytes: a ShapeShifter's instantiate() also insists on the
+  // type's name, and the older definition was published under the current one's.
+  std::vector<uint8_t> buf(m.size());
+  ros::serialization::OStream out(buf.data(), static_cast<uint32_t>(buf.size()));
+  m.write(out);
+  ros::serialization::IStream in(buf.data(), static_cast<uint32_t>(buf.size()));
+  LegacySensorFrame old;
+  ros::serialization::deserialize(in, old);
+  return boost::make_shared<SensorFrame>(upgrade(std::move(old)));
 }
 
 /// The estimate's pose, covariance, residual, points and cameras into `end`.
