@@ -550,7 +550,7 @@ TEST(EstimatorSim, EveryEndOfTwinPipesGivesItsTypeAtLeastHalf) {
   // config/scenes/catwalk_twin.yaml: pipes a (y 5.85) and b (y 6.25), box ends at x 7.2, pin
   // ends at x 2.2.
   const std::array<double, 2> pipe_y{5.85, 6.25};
-  std::array<std::array<double, kNumEnds>, 2> sum{}, n{};
+  std::array<std::array<double, kNumEnds>, 2> sum{}, n{}, od{};
   const int cycles = 60, settled = 15;
   for (int k = 0; k < cycles; ++k) {
     const CycleResult r = est.process(renderCycle(*simulator, k));
@@ -567,6 +567,7 @@ TEST(EstimatorSim, EveryEndOfTwinPipesGivesItsTypeAtLeastHalf) {
         if ((at - Eigen::Vector3d(x, pipe_y[p], 1.0842)).norm() > 0.2) continue;
         for (size_t t = 0; t < e->type_names.size(); ++t)
           if (e->type_names[t] == "5in_NC50_6.625od") sum[p][l] += e->type_probabilities[t];
+        od[p][l] += e->measured_od;
         n[p][l] += 1;
       }
     }
@@ -576,8 +577,9 @@ TEST(EstimatorSim, EveryEndOfTwinPipesGivesItsTypeAtLeastHalf) {
     ASSERT_GT(n[p][1], 0) << "seed " << seed << ": pipe " << p << "'s pin end never reported";
     const double box = sum[p][0] / n[p][0], pin = sum[p][1] / n[p][1];
     std::printf("catwalk_twin seed %u, pipe %zu: 5\" NC50's mean probability %.3f at the box end "
-                "(%g reports), %.3f at the pin end (%g)\n",
-                seed, p, box, n[p][0], pin, n[p][1]);
+                "(%g reports, measured OD %.1f mm), %.3f at the pin end (%g, %.1f mm)\n",
+                seed, p, box, n[p][0], od[p][0] / n[p][0] * 1e3, pin, n[p][1],
+                od[p][1] / n[p][1] * 1e3);
     EXPECT_GE(box, 0.5) << "seed " << seed << ", pipe " << p << "'s box end";
     EXPECT_GE(pin, 0.5) << "seed " << seed << ", pipe " << p << "'s pin end";
   }

@@ -186,3 +186,43 @@ TEST(Evaluation, EveryEndTalliesThePublishedTypesPerTrueEnd) {
   EXPECT_NEAR(ty.least_not_top.at("5in"), 0.2, 1e-12);
   EXPECT_NEAR((ty.position - a).norm(), 0.0, 1e-12);
 }
+
+TEST(Evaluation, ReportedSigmaAgainstTheActualErrorAndTheFreshPoses) {
+  // A static end, a reported position variance of 24 mm^2 per axis (trace 72 mm^2). Fresh
+  // estimates are 6 mm off along x; every third estimate is a repeated one (not fresh), 20 mm
+  // off: it counts in sigma / error = sqrt(mean trace / mean |error|^2), not in the fresh
+  // poses' percentiles.
+  std::array<GroundTruthTrack, kNumEnds> truth;
+  truth[0].add(0, canonicalPose({4.694, 5.3, 0.23}, {0, 0, 1}));
+  truth[0].add(10000000000, canonicalPose({4.694, 5.3, 0.23}, {0, 0, 1}));
+  std::vector<EstimateSample> est;
+  for (int k = 0; k < 90; ++k) {
+    EstimateSample s;
+    s.stamp_ns = static_cast<int64_t>(k * 1e9 / 30);
+    s.valid = true;
+    s.fresh = k % 3 != 0;
+    const double off = s.fresh ? 0.006 : 0.020;
+    s.T_world_end = canonicalPose({4.694 + off, 5.3, 0.23}, {0, 0, 1});
+    s.covariance.setZero();
+    s.covariance.topLeftCorner<3, 3>() = Eigen::Matrix3d::Identity() * 24e-6;
+    s.covariance.bottomRightCorner<3, 3>() = Eigen::Matrix3d::Identity() * 1e-4;
+    est.push_back(s);
+  }
+  const auto ev = evaluate(truth, est);
+  ASSERT_TRUE(ev[0].present);
+  // Mean |error|^2 over all 90: (60 * 36 + 30 * 400) / 90 mm^2; trace 72 mm^2.
+  const double err2 = (60 * 36.0 + 30 * 400.0) / 90.0;
+  EXPECT_NEAR(ev[0].sigma_to_error, std::sqrt(72.0 / err2), 1e-6);
+  EXPECT_NEAR(ev[0].fresh_median_error, 0.006, 1e-9);
+  EXPECT_NEAR(ev[0].fresh_p95_error, 0.006, 1e-9);
+
+  // Without any fresh estimate (and without covariance) both are NaN, not 0.
+  for (auto& s : est) {
+    s.fresh = false;
+    s.covariance.setZero();
+  }
+  const auto none = evaluate(truth, est);
+  EXPECT_TRUE(std::isnan(none[0].sigma_to_error));
+  EXPECT_TRUE(std::isnan(none[0].fresh_median_error));
+  EXPECT_TRUE(std::isnan(none[0].fresh_p95_error));
+}

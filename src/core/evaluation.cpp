@@ -72,7 +72,8 @@ std::array<EndEvaluation, kNumEnds> evaluate(const std::array<GroundTruthTrack, 
     std::vector<PoseError> errors;
     std::vector<Eigen::Vector3d> positions;
     size_t with_cov = 0, inside = 0, with_rot_cov = 0, axis_inside = 0;
-    double lag_sum = 0;
+    double lag_sum = 0, trace_sum = 0, err2_sum = 0;
+    std::vector<double> fresh_errors;
     Eigen::Vector3d true_sum = Eigen::Vector3d::Zero();
     for (const auto& est : estimates) {
       if (est.label != ev.label || !est.valid) continue;
@@ -80,6 +81,7 @@ std::array<EndEvaluation, kNumEnds> evaluate(const std::array<GroundTruthTrack, 
       if (!gt.at(est.stamp_ns, &T_true)) continue;
       const PoseError err = poseError(T_true, est.T_world_end);
       errors.push_back(err);
+      if (est.fresh) fresh_errors.push_back(err.position.norm());
       positions.push_back(est.T_world_end.translation());
       ev.stamps.push_back(est.stamp_ns);
       true_sum += T_true.translation();
@@ -98,6 +100,8 @@ std::array<EndEvaluation, kNumEnds> evaluate(const std::array<GroundTruthTrack, 
         ++with_cov;
         const double d2 = err.position.dot(P.ldlt().solve(err.position));
         if (d2 <= 9.0) ++inside;
+        trace_sum += P.trace();
+        err2_sum += err.position.squaredNorm();
       }
       const Eigen::Matrix3d Q = est.covariance.bottomRightCorner<3, 3>();
       if (Q.trace() > 0) {
@@ -111,6 +115,10 @@ std::array<EndEvaluation, kNumEnds> evaluate(const std::array<GroundTruthTrack, 
     ev.within_3sigma = with_cov ? static_cast<double>(inside) / with_cov : std::nan("");
     ev.axis_within_3sigma =
         with_rot_cov ? static_cast<double>(axis_inside) / with_rot_cov : std::nan("");
+    ev.sigma_to_error =
+        with_cov && err2_sum > 0 ? std::sqrt(trace_sum / err2_sum) : std::nan("");
+    ev.fresh_median_error = fresh_errors.empty() ? std::nan("") : percentile(fresh_errors, 0.5);
+    ev.fresh_p95_error = fresh_errors.empty() ? std::nan("") : percentile(fresh_errors, 0.95);
     ev.mean_lag = ev.moving_estimates ? lag_sum / static_cast<double>(ev.moving_estimates)
                                       : std::nan("");
     if (!errors.empty()) ev.true_position = true_sum / static_cast<double>(errors.size());
@@ -171,6 +179,12 @@ void printEvaluation(const std::array<EndEvaluation, kNumEnds>& evals, std::ostr
     if (!std::isnan(ev.axis_within_3sigma))
       out << "   axis error inside the reported 3-sigma (rotation covariance): "
           << 100 * ev.axis_within_3sigma << " % of estimates\n";
+    if (!std::isnan(ev.sigma_to_error))
+      out << std::setprecision(2) << "   reported position sigma / actual error (rms over axes): "
+          << ev.sigma_to_error << '\n';
+    if (!std::isnan(ev.fresh_median_error))
+      out << std::setprecision(1) << "   fresh poses' error [mm]: median "
+          << ev.fresh_median_error * 1e3 << ", p95 " << ev.fresh_p95_error * 1e3 << '\n';
     if (ev.moving_estimates > 0)
       out << std::setprecision(1) << "   lag (signed error along the motion) [mm]: mean "
           << ev.mean_lag * 1e3 << " over " << ev.moving_estimates

@@ -300,6 +300,7 @@ void tally(const CycleOutput& out, double ms, Tally* t) {
     s.stamp_ns = out.cycle.stamp_ns;
     s.label = static_cast<EndLabel>(e);
     s.valid = p.valid;
+    s.fresh = p.fresh;
     s.T_world_end = p.estimate.T_world_end;
     s.covariance = p.estimate.covariance;
     t->estimates.push_back(s);
@@ -468,7 +469,9 @@ void report(const BenchOptions& o, const std::string& method, size_t n_cameras, 
               << " within_1cm_1deg=" << s.fractionWithin(0.01, M_PI / 180)
               << " within_2cm_2deg=" << s.fractionWithin(0.02, 2 * M_PI / 180)
               << " in_3sigma=" << ev.within_3sigma << " axis_in_3sigma=" << ev.axis_within_3sigma
-              << "\n";
+              << " sigma_to_error=" << ev.sigma_to_error
+              << " fresh_median_mm=" << ev.fresh_median_error * 1e3
+              << " fresh_p95_mm=" << ev.fresh_p95_error * 1e3 << "\n";
   }
 }
 

@@ -41,6 +41,8 @@ struct EstimateSample {
   int64_t stamp_ns = 0;
   EndLabel label = EndLabel::kBoxEnd;
   bool valid = false;
+  /// Computed in this cycle (false: a valid end's last pose repeated while it is young enough).
+  bool fresh = true;
   Eigen::Isometry3d T_world_end = Eigen::Isometry3d::Identity();
   Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();
 };
@@ -59,6 +61,15 @@ struct EndEvaluation {
   /// covariance (roll has a huge variance there, so it is the tilt that counts). NaN when no
   /// rotation covariance was given.
   double axis_within_3sigma = 0;
+  /// The reported position sigma against the actual error, over the scored estimates with a
+  /// covariance: sqrt(mean trace(P) / mean |error|^2), i.e. the rms of the reported sigmas over
+  /// the three axes divided by the rms of the errors' components. 1: honest on average; above:
+  /// inflated. NaN without covariance or without error.
+  double sigma_to_error = 0;
+  /// Position error [m] of the fresh estimates (this cycle's poses, not a repeated one): median
+  /// and 95th percentile; NaN without fresh estimates.
+  double fresh_median_error = 0;
+  double fresh_p95_error = 0;
   Eigen::Vector3d true_position = Eigen::Vector3d::Zero();  ///< mean ground-truth position
   /// Lag: mean signed position error [m] along the ground truth's direction of motion, over the
   /// estimates taken while the end moved faster than EvaluationOptions::moving_speed (negative:
