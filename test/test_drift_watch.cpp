@@ -129,6 +129,37 @@ TEST(DriftWatch, LearnsEachCamerasOwnDisagreementAsItsBaseline) {
   EXPECT_NEAR(a.excess("cam1"), 0.035 / 0.03, 1e-3);
 }
 
+TEST(DriftWatch, AnEndThatComesIntoViewLaterIsLearnedThenNotFlagged) {
+  // One camera sees the box end from the start, its view reading 15 mm nearer than the fit; at
+  // 3 s the pin end comes into view (a type that was still being measured), its view reading
+  // 15 mm farther. Each end's own bias is learned over its first second: no flag. Then the
+  // camera is bumped 2 cm away: both ends move, and it is flagged on the change.
+  EstimatorConfig::Drift c;  // learns 1 s; tau 1 s; 1 cm
+  DriftWatch w(c);
+  const Eigen::Vector3d u(1, 0, 0);
+  double flagged_at = -1;
+  for (double t = 0.0; t < 9.0; t += 1.0 / 30) {
+    const double bump = t >= 6.0 ? 0.02 : 0.0;
+    DriftObservations obs;
+    obs["cam1"][0] = syntheticObservation(Eigen::Vector3d(-0.015 + bump, 0, 0), u, 6.5, 500);
+    if (t >= 3.0)
+      obs["cam1"][1] = syntheticObservation(Eigen::Vector3d(0.015 + bump, 0, 0), u, 6.5, 1000);
+    w.updateByEnd(static_cast<int64_t>(t * 1e9), obs);
+    if (flagged_at < 0 && w.flagged("cam1")) flagged_at = t;
+    if (t < 6.0) {
+      ASSERT_FALSE(w.flagged("cam1"))
+          << "t = " << t << " s: " << describeDrift(w.status()[0]);
+      EXPECT_LT(std::abs(w.status()[0].ray_shift), 1e-6) << "t = " << t << " s";
+    }
+  }
+  // The change is 2 cm on both ends: flagged ln 2 s after the bump, as with one end.
+  EXPECT_NEAR(flagged_at - 6.0, std::log(2.0), 0.05);
+  // The camera's combined disagreement moved from -15 mm to +5 mm when the pin end joined
+  // (points-weighted: a baseline learned on the camera as a whole would have flagged that), and
+  // toward +25 mm after the bump (3 s of the 1 s time constant).
+  EXPECT_NEAR(w.status()[0].disagreement_ray, 0.005 + 0.02 * (1 - std::exp(-3.0)), 1e-3);
+}
+
 // -- on the simulator
 
 constexpr uint32_t kSeed = 61;

@@ -177,7 +177,7 @@ void watchDrift(const std::vector<CycleCamera>& cams, const std::vector<CycleCam
     return c < cams.size() ? cams[c] : left_out[c - cams.size()];
   };
   const size_t n = cams.size() + left_out.size();
-  std::map<std::string, ShiftObservation> obs;
+  DriftObservations obs;
   for (int slot = 0; slot < kNumEnds; ++slot) {
     if (!result->ends[slot].valid || owner[slot] < 0) continue;
     const Candidate& cd = cand[owner[slot]];
@@ -193,10 +193,10 @@ void watchDrift(const std::vector<CycleCamera>& cams, const std::vector<CycleCam
     for (const std::vector<CloudPoint>* pts : sources)
       for (const CloudPoint& p : *pts) per[p.camera].push_back(p.p_world);
     for (size_t c = 0; c < n; ++c)
-      obs[camAt(c).name].add(
-          observeShift(per[c], camAt(c).T_world_depth.translation(), s, config.drift.gate));
+      obs[camAt(c).name][slot] =
+          observeShift(per[c], camAt(c).T_world_depth.translation(), s, config.drift.gate);
   }
-  watch->update(stamp_ns, obs);
+  watch->updateByEnd(stamp_ns, obs);
   result->drift = watch->status();
   for (CameraDriftStatus& d : result->drift)
     for (const CycleCamera& cam : left_out) d.left_out = d.left_out || cam.name == d.camera;
