@@ -405,8 +405,10 @@ TEST(CutOut, MeasuredAmplitudeTakesTheWeakReturnBiasOutOfTheDepth) {
     for (uint32_t u = 0; u < f.depth.width; ++u)
       f.amplitude.set(u, v, a * static_cast<float>(cfg.noise.amplitude_scale));
   const CycleCamera bright = makeCycleCamera(f, in.T_world_depth, in.T_color_depth, 0.0f);
+  CycleCamera corrected = bright;
+  correctWeakReturns(&corrected, cfg);
   std::array<std::vector<CloudPoint>, kNumEnds> with;
-  cutOutCamera(bright, 0, cfg, &with);
+  cutOutCamera(corrected, 0, cfg, &with);
   ASSERT_EQ(with[0].size(), without[0].size());
   const kinect_v2::AmplitudeModel model;
   const double bias = kinect_v2::weakReturnBias(model, a, cfg.profile_fit.bias_reference);
@@ -418,12 +420,26 @@ TEST(CutOut, MeasuredAmplitudeTakesTheWeakReturnBiasOutOfTheDepth) {
     EXPECT_GT(d.dot(ray), 0.0f) << "point " << i << " moved toward the camera";
     // Along the ray by -bias / cos(the ray's angle to the optical axis), within a few percent.
     EXPECT_NEAR(d.norm(), -bias, 0.1 * -bias) << "point " << i;
-    EXPECT_EQ(with[0][i].sigma, without[0][i].sigma);
+    // The same noise model, at the corrected depth (28 mm farther: within 1 %).
+    EXPECT_NEAR(with[0][i].sigma, without[0][i].sigma, 0.01 * without[0][i].sigma);
   }
+  // Every reader of the depth sees the corrected depth: a pixel's depth is nearer by the bias.
+  int read = 0;
+  for (int v = corrected.crop[1]; v < corrected.crop[3]; v += 3)
+    for (int u = corrected.crop[0]; u < corrected.crop[2]; u += 3) {
+      const float z = bright.image.depthAt(u, v);
+      if (!(z == z)) continue;
+      EXPECT_NEAR(corrected.image.depthAt(u, v), z - bias, 1e-5) << "pixel " << u << ", " << v;
+      ++read;
+    }
+  EXPECT_GT(read, 100);
   // With the amplitude model off (the default), the amplitude changes nothing.
   cfg.noise.amplitude_model = false;
+  CycleCamera untouched = bright;
+  correctWeakReturns(&untouched, cfg);
+  EXPECT_EQ(untouched.image.data, bright.image.data);
   std::array<std::vector<CloudPoint>, kNumEnds> off;
-  cutOutCamera(bright, 0, cfg, &off);
+  cutOutCamera(untouched, 0, cfg, &off);
   ASSERT_EQ(off[0].size(), without[0].size());
   for (size_t i = 0; i < off[0].size(); ++i)
     EXPECT_EQ(off[0][i].p_world, without[0][i].p_world) << "point " << i;

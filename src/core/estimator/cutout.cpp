@@ -124,6 +124,31 @@ double incidenceSigma(double coefficient_mm, double range, double cos_incidence)
          1e-3;
 }
 
+void correctWeakReturns(CycleCamera* cam, const EstimatorConfig& config) {
+  if (!config.noise.amplitude_model || cam->amplitude.empty()) return;
+  const auto [u0, v0, u1, v1] = cam->crop;
+  if (u0 >= u1 || v0 >= v1) return;
+  const DepthImage& in = cam->image;
+  DepthImage out = DepthImage::allocate(in.width, in.height, DepthEncoding::kF32Metres);
+  const double amp_scale = config.noise.amplitude_scale;
+  for (int v = v0; v < v1; ++v)
+    for (int u = u0; u < u1; ++u) {
+      const float z = in.depthAt(u, v);
+      const float dn = cam->amplitude.at(u, v);
+      if (!(z == z) || !(dn > 0.0f)) {  // no depth, or no amplitude: as read
+        out.setDepth(u, v, z);
+        continue;
+      }
+      // The weak-return bias of the measured amplitude, along the depth (the camera reads a
+      // weak return farther), less what the depth calibration removed. A pixel moved along its
+      // ray keeps its (u, v): back-projection is linear in the depth.
+      const double bias = kinect_v2::weakReturnBias(kAmplitude, dn / amp_scale,
+                                                    config.profile_fit.bias_reference);
+      out.setDepth(u, v, static_cast<float>(z - bias));
+    }
+  cam->image = std::move(out);
+}
+
 void cutOutCamera(const CycleCamera& cam, uint16_t camera_index, const EstimatorConfig& config,
                   std::array<std::vector<CloudPoint>, kNumEnds>* out) {
   const DepthProjector projector(cam.depth);
@@ -138,8 +163,6 @@ void cutOutCamera(const CycleCamera& cam, uint16_t camera_index, const Estimator
   const double m = config.cutout.box_margin_px;
   const float zmin = config.cutout.min_range, zmax = config.cutout.max_range;
   const float jump = static_cast<float>(config.cutout.edge_jump);
-  const bool with_amplitude = !cam.amplitude.empty() && config.noise.amplitude_model;
-  const double amp_scale = config.noise.amplitude_scale;
   const int W = static_cast<int>(cam.image.width), H = static_cast<int>(cam.image.height);
   for (size_t k = 0; k < cam.boxes.size(); ++k) {
     const DetectionBox& b = cam.boxes[k];
@@ -170,26 +193,7 @@ void cutOutCamera(const CycleCamera& cam, uint16_t camera_index, const Estimator
           const Eigen::Vector3f pw = R_wd * p + t_wd;
           if ((pw.array() < zone_min.array()).any() || (pw.array() > zone_max.array()).any())
             return;
-          float sigma = depthSigma(config.noise, p.z());
-          if (!with_amplitude) {
-            dst.push_back({pw, sigma, camera_index});
-            return;
-          }
-          const float dn = cam.amplitude.at(u, v);
-          if (!(dn > 0.0f)) {  // no amplitude at this pixel: as without an amplitude image
-            dst.push_back({pw, sigma, camera_index});
-            return;
-          }
-          // The weak-return bias of the measured amplitude, along the depth (the camera reads a
-          // weak return farther), less what the depth calibration removed.
-          const double a = dn / amp_scale;
-          const float bias = static_cast<float>(
-              kinect_v2::weakReturnBias(kAmplitude, a, config.profile_fit.bias_reference));
-          const float z_true = p.z() - bias;
-          if (!(z_true > zmin)) return;
-          const Eigen::Vector3f pc_true = p * (z_true / p.z());
-          const Eigen::Vector3f pw_true = R_wd * pc_true + t_wd;
-          dst.push_back({pw_true, sigma, camera_index});
+          dst.push_back({pw, depthSigma(config.noise, p.z()), camera_index});
         });
   }
 }

@@ -1114,6 +1114,8 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
   const EstimatorConfig& config =
       measured && config_.profile_fit.reflectivity > 0 ? impl_->withoutPredictedBias(config_)
                                                        : config_;
+  // Each pixel's weak-return bias out of its depth, once for every stage that reads it.
+  for (CycleCamera& cam : cams) correctWeakReturns(&cam, config);
   const std::vector<CycleCamera> left_out = takeLeftOut(&cams, state.drift, config.drift);
 
   // Cut-out.

@@ -54,6 +54,14 @@ CycleCamera makeCycleCamera(const SensorFrameData& frame, const Eigen::Isometry3
 bool depthRectOfBox(const CycleCamera& cam, const DetectionBox& box, double margin_px,
                     double min_range, double max_range, std::array<int, 4>* rect);
 
+/// With noise.amplitude_model and a frame that carries its amplitude: cam->image, within
+/// cam->crop, replaced by the depth with each pixel's weak-return bias taken out (the Kinect
+/// v2's, fitted on the real sensor: kinect_v2::weakReturnBias of the pixel's amplitude, less
+/// the bias at profile_fit.bias_reference). Every stage that reads the camera's depth (the
+/// cut-out, the carving's occlusion test, the seen-through pixels) then reads the same depth.
+/// A pixel without an amplitude value (0) is kept as read. Otherwise nothing changes.
+void correctWeakReturns(CycleCamera* cam, const EstimatorConfig& config);
+
 /// Per-camera cut-out: every valid depth pixel in the frustum of a box whose registration into
 /// the colour image falls inside that box (grown by cfg.box_margin_px), to world, inside the work
 /// zone. Each pixel is emitted at most once per label (duplicate boxes). Appends to out[label].

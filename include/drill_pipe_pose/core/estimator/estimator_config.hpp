@@ -307,8 +307,8 @@ struct EstimatorConfig {
     /// Use the frames' amplitude: each pixel's weak-return bias taken out of its depth (the
     /// Kinect v2's, fitted on the real sensor; docs/measurement_model.md). false: the amplitude
     /// is ignored. Off by default for now: the pipe-type rules (typing/*, the radius searches'
-    /// withholding) and the drift watch's baseline were tuned on depth with the bias left in,
-    /// and two of their regression tests fail with it on (docs/measurement_model.md).
+    /// withholding) were tuned on depth with the bias left in, and one of their regression
+    /// tests fails with it on (docs/measurement_model.md).
     bool amplitude_model = false;
   } noise;
 
