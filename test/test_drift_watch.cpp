@@ -132,8 +132,8 @@ TEST(DriftWatch, LearnsEachCamerasOwnDisagreementAsItsBaseline) {
 TEST(DriftWatch, AnEndThatComesIntoViewLaterIsLearnedThenNotFlagged) {
   // One camera sees the box end from the start, its view reading 15 mm nearer than the fit; at
   // 3 s the pin end comes into view (a type that was still being measured), its view reading
-  // 15 mm farther. Each end's own bias is learned over its first second: no flag. Then the
-  // camera is bumped 2 cm away: both ends move, and it is flagged on the change.
+  // 15 mm farther. The new set of ends (box and pin) is learned over its first second: no flag.
+  // Then the camera is bumped 2 cm away: both ends move, and it is flagged on the change.
   EstimatorConfig::Drift c;  // learns 1 s; tau 1 s; 1 cm
   DriftWatch w(c);
   const Eigen::Vector3d u(1, 0, 0);

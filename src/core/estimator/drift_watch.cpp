@@ -114,107 +114,94 @@ void DriftWatch::updateByEnd(int64_t stamp_ns, const DriftObservations& observat
     s.measured = false;
     s.points = 0;
   }
-  std::map<std::string, std::array<EndSample, kNumEnds>> samples;
-  for (int e = 0; e < kNumEnds; ++e) {
-    std::vector<double> rays;
-    for (const auto& [name, per_end] : observations) {
-      cams_[name].camera = name;
-      const ShiftObservation& obs = per_end[e];
-      if (obs.points < config_.min_points || obs.range_sum <= 0) continue;
-      const Eigen::Vector3d t = obs.solve();
-      const Eigen::Vector3d u = obs.ray_sum.normalized();
-      EndSample& sm = samples[name][e];
-      sm.ray = t.dot(u);
-      sm.range = obs.range_sum / static_cast<double>(obs.points);
-      sm.angle = (t - sm.ray * u) / sm.range;
-      sm.points = obs.points;
-      rays.push_back(sm.ray);
-    }
-    // What every camera shares along its ray on this end is no camera's drift (a joint a
-    // little thicker than the model, a depth bias of the sensor type: about -10 mm in every
-    // camera of the simulated thesis_vertical, kinect_v2_calibrated, seed 61): with kMinCommon
-    // cameras or more, the median is taken off each.
-    const double common = rays.size() >= kMinCommon ? upperMedian(std::move(rays)) : 0.0;
-    for (auto& [name, per_end] : samples)
-      if (per_end[e].points > 0) per_end[e].ray -= common;
+  struct Sample {
+    double ray = 0, range = 0;
+    Eigen::Vector3d lateral = Eigen::Vector3d::Zero();
+    size_t points = 0;
+    unsigned ends = 0;  ///< bit e: end e measured
+  };
+  std::map<std::string, Sample> samples;
+  std::vector<double> rays;
+  for (const auto& [name, per_end] : observations) {
+    cams_[name].camera = name;
+    // The camera's ends, their normal equations added up.
+    ShiftObservation obs;
+    unsigned ends = 0;
+    for (int e = 0; e < kNumEnds; ++e)
+      if (per_end[e].points > 0) {
+        obs.add(per_end[e]);
+        ends |= 1u << e;
+      }
+    if (obs.points < config_.min_points || obs.range_sum <= 0) continue;
+    const Eigen::Vector3d t = obs.solve();
+    const Eigen::Vector3d u = obs.ray_sum.normalized();
+    Sample& sm = samples[name];
+    sm.ray = t.dot(u);
+    sm.lateral = t - sm.ray * u;
+    sm.range = obs.range_sum / static_cast<double>(obs.points);
+    sm.points = obs.points;
+    sm.ends = ends;
+    rays.push_back(sm.ray);
   }
-  for (const auto& [name, per_end] : samples) updateCamera(stamp_ns, per_end, &cams_[name]);
+  // What every camera shares along its ray is no camera's drift (a joint a little thicker than
+  // the model, a depth bias of the sensor type: about -10 mm in every camera of the simulated
+  // thesis_vertical, kinect_v2_calibrated, seed 61): with kMinCommon cameras or more, the
+  // median is taken off each.
+  const double common = rays.size() >= kMinCommon ? upperMedian(std::move(rays)) : 0.0;
+  for (const auto& [name, sm] : samples)
+    updateCamera(stamp_ns, sm.ends, sm.ray - common, sm.lateral / sm.range, sm.points,
+                 &cams_[name]);
 }
 
-void DriftWatch::updateCamera(int64_t stamp_ns, const std::array<EndSample, kNumEnds>& per_end,
+void DriftWatch::updateCamera(int64_t stamp_ns, unsigned ends, double ray,
+                              const Eigen::Vector3d& angle, size_t points,
                               CameraDriftStatus* st) {
   CameraDriftStatus& s = *st;
-  std::array<EndBaseline, kNumEnds>& base = baselines_[s.camera];
   const auto weight = [stamp_ns](int64_t last_ns, double time_constant) {
     const double dt =
         last_ns > 0 && stamp_ns > last_ns ? static_cast<double>(stamp_ns - last_ns) * 1e-9 : 0.0;
     return 1.0 - std::exp(-std::min(dt, 5.0 * time_constant) / time_constant);
   };
-  // This cycle's disagreement (points-weighted over the ends measured) and its change from
-  // each end's own baseline (over the ends whose baseline is learned): a camera's view of each
-  // end has its own bias, so an end that comes into view later changes the camera's
-  // disagreement, not its change.
-  double ray = 0, change_ray = 0, learned_ray = 0, w_all = 0, w_change = 0;
-  Eigen::Vector3d angle = Eigen::Vector3d::Zero(), change_angle = Eigen::Vector3d::Zero(),
-                  learned_angle = Eigen::Vector3d::Zero();
-  bool any_learned = false;
-  for (int e = 0; e < kNumEnds; ++e) {
-    const EndSample& sm = per_end[e];
-    if (sm.points == 0) continue;
-    EndBaseline& b = base[e];
-    if (b.samples == 0) b.first_stamp_ns = stamp_ns;
-    ++b.samples;
-    // A baseline is the plain mean of the end's samples over its first learn_time seconds of
-    // capture time; after that it follows them with baseline_time_constant (0: never) while
-    // the camera is not flagged.
-    b.learning = static_cast<double>(stamp_ns - b.first_stamp_ns) * 1e-9 < config_.learn_time;
-    if (b.learning) {
-      const double a = 1.0 / static_cast<double>(b.samples);
-      b.ray += a * (sm.ray - b.ray);
-      b.angle += a * (sm.angle - b.angle);
-    } else if (!s.flagged && config_.baseline_time_constant > 0) {
-      const double ab = weight(b.last_stamp_ns, config_.baseline_time_constant);
-      b.ray += ab * (sm.ray - b.ray);
-      b.angle += ab * (sm.angle - b.angle);
-    }
-    b.last_stamp_ns = stamp_ns;
-    const double w = static_cast<double>(sm.points);
-    ray += w * sm.ray;
-    angle += w * sm.angle;
-    w_all += w;
-    if (b.learning) continue;
-    any_learned = true;
-    change_ray += w * (sm.ray - b.ray);
-    change_angle += w * (sm.angle - b.angle);
-    learned_ray += w * b.ray;
-    learned_angle += w * b.angle;
-    w_change += w;
+  // The baseline of the ends the camera measured in this cycle: a camera's view of each end has
+  // its own bias, so the camera has a baseline per set of ends (box, pin, both). It is the
+  // plain mean of the set's samples over its first learn_time seconds of capture time; after
+  // that it follows them with baseline_time_constant (0: never) while the camera is not
+  // flagged. A set seen for the first time later (an end that comes into view) is learned then:
+  // its cycles change the camera's disagreement, not its shift.
+  EndBaseline& b = baselines_[s.camera][ends & (kEndSets - 1)];
+  if (b.samples == 0) b.first_stamp_ns = stamp_ns;
+  ++b.samples;
+  b.learning = static_cast<double>(stamp_ns - b.first_stamp_ns) * 1e-9 < config_.learn_time;
+  if (b.learning) {
+    const double ab = 1.0 / static_cast<double>(b.samples);
+    b.ray += ab * (ray - b.ray);
+    b.angle += ab * (angle - b.angle);
+  } else if (!s.flagged && config_.baseline_time_constant > 0) {
+    const double ab = weight(b.last_stamp_ns, config_.baseline_time_constant);
+    b.ray += ab * (ray - b.ray);
+    b.angle += ab * (angle - b.angle);
   }
-  if (w_all <= 0) return;
-  ray /= w_all;
-  angle /= w_all;
+  b.last_stamp_ns = stamp_ns;
   if (s.samples == 0) s.first_stamp_ns = stamp_ns;
   ++s.samples;
-  // Exponential weight over capture time; while no end is learned, at least the plain mean's.
+  // Exponential weight over capture time; while no set is learned, at least the plain mean's.
   double a = weight(s.last_stamp_ns, config_.time_constant);
   s.learning = true;
-  for (const EndBaseline& b : base) s.learning = s.learning && (b.samples == 0 || b.learning);
+  for (const EndBaseline& x : baselines_[s.camera])
+    s.learning = s.learning && (x.samples == 0 || x.learning);
   if (s.learning) a = std::max(a, 1.0 / static_cast<double>(s.samples));
   s.disagreement_ray += a * (ray - s.disagreement_ray);
   s.disagreement_lateral += a * (angle - s.disagreement_lateral);  // an angle: the range varies
-  if (any_learned) {
-    s.ray_shift += a * (change_ray / w_change - s.ray_shift);
-    s.lateral += a * (change_angle / w_change - s.lateral);
-    s.baseline_ray = learned_ray / w_change;
-    s.baseline_lateral = learned_angle / w_change;
-  } else {
-    s.baseline_ray = s.disagreement_ray;
-    s.baseline_lateral = s.disagreement_lateral;
+  if (!b.learning) {
+    s.ray_shift += a * ((ray - b.ray) - s.ray_shift);
+    s.lateral += a * ((angle - b.angle) - s.lateral);
   }
+  s.baseline_ray = b.ray;
+  s.baseline_lateral = b.angle;
   s.rotation = s.lateral.norm() * 180.0 / M_PI;
   s.last_stamp_ns = stamp_ns;
   s.measured = true;
-  s.points = static_cast<size_t>(w_all);
+  s.points = points;
   const double ray_lim = config_.max_ray_shift, rot_lim = config_.max_rotation;
   const double absolute = absoluteExcess(s);
   if (!s.flagged && !s.learning &&

@@ -308,8 +308,8 @@ ParamTable<C> trackingRows() {
       P("drift/release_fraction", drift.release_fraction, "", between(0, 1),
         "a flag is cleared when both figures fall below this fraction of their limits"),
       P("drift/learn_time", drift.learn_time, "s", atLeast(0),
-        "each camera's own disagreement on each end is learned over its first seconds on that "
-        "end as its baseline there"),
+        "each camera's own disagreement on each set of ends it sees is learned over its first "
+        "seconds on that set as its baseline there"),
       P("drift/baseline_time_constant", drift.baseline_time_constant, "s", atLeast(0),
         "then the baseline follows the camera with this time constant while unflagged; 0: frozen"),
       P("drift/absolute_factor", drift.absolute_factor, "", atLeast(1),

@@ -8,14 +8,14 @@
 // ends it saw onto its points (point to plane, least squares; observeShift), split into the
 // shift along the camera's view ray (t . u, u the unit ray from the camera to the end) and a
 // rotation (the lateral rest of t over the range: a rotated camera moves its points sideways by
-// about range x angle). The shift along the ray that the cycle's cameras share on an end (their
-// median, with 3 or more measured) is taken off: it is no one camera's drift. Per camera, both are
+// about range x angle). The shift along the ray that the cycle's cameras share (their median,
+// with 3 or more measured) is taken off: it is no one camera's drift. Per camera, both are
 // averaged with an exponential weight of time constant drift.time_constant [s] of capture time
 // (DriftWatch). Each camera has views whose disagreement is not drift (the sensor's depth bias
-// differs with range and incidence), so its mean on each end over its first drift.learn_time
-// seconds on that end is learned as its baseline there (an end that comes into view later, a
-// pin end whose type was still being measured, is learned when it does), and what is flagged
-// is the change from the baselines: above max_ray_shift or
+// differs with range and incidence), so its mean over its first drift.learn_time seconds on each
+// set of ends it measures (box, pin, both) is learned as its baseline there (when an end comes
+// into view later, a pin end whose type was still being measured, the new set is learned then),
+// and what is flagged is the change from the baseline of the set measured: above max_ray_shift or
 // max_rotation, cleared when both fall below release_fraction of them (hysteresis). A
 // disagreement above absolute_factor times the limits is flagged without a baseline (a camera
 // bumped before the watch learned).
@@ -103,9 +103,10 @@ class DriftWatch {
   DriftWatch() = default;
   explicit DriftWatch(const EstimatorConfig::Drift& config) : config_(config) {}
   /// One cycle's observations by camera and end at capture time stamp_ns [ns]. Each camera
-  /// learns a baseline per end (its first learn_time seconds on that end): an end that comes
-  /// into a camera's view later is learned then, and only its change counts. Cameras without
-  /// an observation keep their estimate and flag (measured = false).
+  /// learns a baseline per set of ends it measures (box, pin, both: its first learn_time seconds
+  /// on that set): when an end comes into a camera's view later, the new set is learned then,
+  /// and only changes from a learned baseline count. Cameras without an observation keep their
+  /// estimate and flag (measured = false).
   void updateByEnd(int64_t stamp_ns, const DriftObservations& observations);
   /// The same with one observation per camera, all of one end.
   void update(int64_t stamp_ns, const std::map<std::string, ShiftObservation>& observations);
@@ -122,14 +123,7 @@ class DriftWatch {
   }
 
  private:
-  /// One camera's sample on one end: shift along the ray [m] with the cycle's common part off,
-  /// lateral offset over the range [rad], its points (0: not measured).
-  struct EndSample {
-    double ray = 0.0, range = 0.0;
-    Eigen::Vector3d angle = Eigen::Vector3d::Zero();
-    size_t points = 0;
-  };
-  /// One camera's learned baseline on one end.
+  /// One camera's learned baseline on one set of ends.
   struct EndBaseline {
     double ray = 0.0;  ///< [m]
     Eigen::Vector3d angle = Eigen::Vector3d::Zero();  ///< [rad]
@@ -137,13 +131,17 @@ class DriftWatch {
     int64_t first_stamp_ns = 0, last_stamp_ns = 0;
     bool learning = true;
   };
-  void updateCamera(int64_t stamp_ns, const std::array<EndSample, kNumEnds>& per_end,
-                    CameraDriftStatus* s);
+  /// Sets of ends a camera can measure in a cycle (a bit per end).
+  static constexpr unsigned kEndSets = 1u << kNumEnds;
+  /// One camera's sample of one cycle on the set of ends `ends` (ray shift [m] with the cycle's
+  /// common part off, lateral angle [rad]).
+  void updateCamera(int64_t stamp_ns, unsigned ends, double ray, const Eigen::Vector3d& angle,
+                    size_t points, CameraDriftStatus* s);
   /// The ratio of the camera's absolute disagreement to the limits (see excess).
   double absoluteExcess(const CameraDriftStatus& s) const;
   EstimatorConfig::Drift config_;
   std::map<std::string, CameraDriftStatus> cams_;
-  std::map<std::string, std::array<EndBaseline, kNumEnds>> baselines_;
+  std::map<std::string, std::array<EndBaseline, kEndSets>> baselines_;
 };
 
 /// "shift along the view ray +12.3 mm, rotation 0.45 deg" (since the baseline) for a message.

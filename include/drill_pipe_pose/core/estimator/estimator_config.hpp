@@ -385,10 +385,10 @@ struct EstimatorConfig {
     double max_rotation = 0.3;
     /// A flagged camera is cleared when both figures fall below this fraction of their limits.
     double release_fraction = 0.5;
-    /// [s] capture time over which each camera's own disagreement on each end is learned from
-    /// its first observation of that end (its mean becomes the camera's baseline there, and the
-    /// flags above measure the change from the baselines); no flag is raised while a camera
-    /// has no learned end. Why a baseline: undisturbed, a
+    /// [s] capture time over which each camera's own disagreement on each set of ends it
+    /// measures (box, pin, both) is learned from its first observation of that set (its mean
+    /// becomes the camera's baseline there, and the flags above measure the change from it); no
+    /// flag is raised while a camera has no learned set. Why a baseline: undisturbed, a
     /// camera's points disagree with the fused fit by up to 14 mm along the ray and 0.3 deg
     /// (thesis_angled, catwalk_horizontal, kinect_v2_calibrated, seed 81, even with the true
     /// rig: the sensor's depth bias differs between the cameras' views), as much as a bump.
