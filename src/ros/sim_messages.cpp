@@ -87,6 +87,9 @@ KinectTopics simCalibrationTopics(const sim::RigSimulator& sim, size_t camera,
   k.images.emplace_back(conventions::depthImageTopic(cam),
                         toMsg(f.depth, f.depth_stamp_ns, f.depth_frame_id));
   k.infos.emplace_back(conventions::depthInfoTopic(cam), toMsg(f.depth_info, f.depth_stamp_ns));
+  if (!f.amplitude.empty())  // the driver's IR image beside the depth, as on a rig
+    k.images.emplace_back(conventions::amplitudeImageTopic(cam),
+                          toMsg(f.amplitude, f.depth_stamp_ns, f.depth_frame_id));
   return k;
 }
 

@@ -36,7 +36,8 @@ KinectTopics simKinectTopics(const sim::RigSimulator& sim, size_t camera,
                              const sim::RigSimulator::Frame& frame);
 /// What the rig calibration records of a rendered frame (the simulator rendering colour at HD,
 /// SimulatorOptions::color_scale = 2): the HD grey image (mono8, converted from the colour as
-/// kinect2_bridge's image_mono is) and its info, the SD depth image and its info. Throws
+/// kinect2_bridge's image_mono is) and its info, the SD depth image and its info, and the IR
+/// amplitude image (sd/image_ir_rect) when the frame carries one. Throws
 /// InputError naming the camera when the frame has no colour.
 KinectTopics simCalibrationTopics(const sim::RigSimulator& sim, size_t camera,
                                   const sim::RigSimulator::Frame& frame);
