@@ -113,12 +113,13 @@ class CalibrationBag(unittest.TestCase):
             for t in (f"/{c}/hd/camera_info", f"/{c}/sd/image_depth_rect", f"/{c}/sd/camera_info"):
                 self.assertEqual(info[t].message_count, sets[c], t)
             # The IR amplitude beside the sets' depth (simulate_bag --hd-mono sends it), on the
-            # depth's stamp: all but the few a topic can lose while the player's connections
-            # come up (cam3 lost its first 2 of 21 once; the sets above lose theirs the same way).
+            # depth's stamp: all but the few a topic can lose at the edges, as the sets above
+            # may lose 5 of 23 (in a full test run cam3 lost its first 2 IR images of 21 sets
+            # while the player's connections came up).
             ir = f"/{c}/sd/image_ir_rect"
             self.assertIn(ir, info, f"camera {c}: no IR amplitude recorded")
             self.assertLessEqual(info[ir].message_count, sets[c], ir)
-            self.assertGreaterEqual(info[ir].message_count, sets[c] - 3, ir)
+            self.assertGreaterEqual(info[ir].message_count, sets[c] - 5, ir)
         with rosbag.Bag(self.recorded) as bag:
             depth_stamps = {(t, m.header.stamp) for t, m, _ in bag.read_messages(
                 topics=[f"/{c}/sd/image_depth_rect" for c in CAMERAS])}
