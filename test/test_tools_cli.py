@@ -28,7 +28,7 @@ BIN_DIR = None
 OPTIONS = {
     "calibrate_rig": ["--observations", "--bag", "--config", "--image-topic", "--save-observations",
                       "--out", "--depth-scale", "--intrinsics", "--no-depth", "--plain",
-                      "--min-placements", "--true-rig", "--report"],
+                      "--min-placements", "--true-rig", "--report", "--no-weak-return-model"],
     "bench_estimator": ["--method", "--max-cycles", "--work-zone", "--csv", "--label",
                         "--skip-camera", "--no-temporal", "--no-tracking", "--threads",
                         "--vote-fraction", "--box-reach", "--confirmations",
@@ -58,7 +58,7 @@ OPTIONS = {
                      "--no-detection", "--color", "--crop", "--sensors", "--quiet", "--effect-off",
                      "--hd-mono", "--fps", "--detector-model", "--detector-param", "--true-boxes"],
     "simulate_calibration": ["--rig", "--scene", "--profile", "--seed", "--out", "--true-rig",
-                             "--frames-per-placement", "--sensors"],
+                             "--frames-per-placement", "--sensors", "--no-weak-return-model"],
 }
 
 

@@ -205,6 +205,11 @@ int main(int argc, char** argv) {
                  "the same board pose; 3: a board held 2 s at the recorder's 2 Hz)")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+  bool no_weak_return = false;
+  app.add_flag("--no-weak-return-model", no_weak_return,
+               "with --bag: the depth has no Kinect v2 weak-return bias (another sensor, the "
+               "simulator's ideal profile): depth samples are taken as read")
+      ->needs(bag_o);
   app.add_option("--save-observations", save_path,
                  "with --bag: write the observations extracted from it (YAML)")
       ->needs(bag_o);
@@ -223,6 +228,7 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   app.add_option("--report", report_path, "write the figures as YAML");
   tools::parseOrExit(app, argc, argv);
+  bag_opt.capture.weak_return_model = !no_weak_return;
   if (obs_path.empty() == bag_path.empty() || (!bag_path.empty() && config_path.empty())) {
     std::fprintf(stderr, "calibrate_rig: give --observations OBS.yaml, or --bag BAG with "
                          "--config CAL.yaml\n");

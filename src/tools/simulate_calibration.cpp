@@ -35,7 +35,7 @@ namespace {
 
 /// Renders and extracts every (placement, camera, frame); prints progress and the coverage.
 cal::ObservationSet capture(sim::RigSimulator& sim, const sim::CalibrationTargetConfig& tc,
-                            int frames) {
+                            int frames, const cal::CaptureOptions& options) {
   cal::ObservationSet set;
   set.world_frame = sim.worldFrame();
   set.target = tc.geometry;
@@ -68,7 +68,7 @@ cal::ObservationSet capture(sim::RigSimulator& sim, const sim::CalibrationTarget
         cv::cvtColor(bgr, gray, cv::COLOR_BGR2GRAY);
         cal::Observation ob = cal::extractObservation(tc.geometry, set.cameras[i], gray,
                                                       f.sensor_frame.depth, static_cast<int>(k),
-                                                      t);
+                                                      t, options);
         if (ob.corners.empty()) continue;
         if (j == 0) ++seen[i];
         corners[i] += static_cast<int>(ob.corners.size());
@@ -89,6 +89,8 @@ int main(int argc, char** argv) {
   std::string rig = "config/rigs/thesis_lab.yaml", scene, out, true_rig;
   int frames = 1;
   std::vector<std::string> effects_off;
+  cal::CaptureOptions capture_options;
+  bool no_weak_return = false;
   sim::SimulatorOptions opt;
   opt.color = true;
   opt.color_scale = 2;  // the Kinect v2's HD colour image
@@ -113,6 +115,9 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::Range(1, 30));
   app.add_option("--sensors", opt.sensor_config_dir, "folder of the sensor intrinsics files");
+  app.add_flag("--no-weak-return-model", no_weak_return,
+               "the depth has no Kinect v2 weak-return bias (the ideal profile, another sensor): "
+               "depth samples are taken as read");
   tools::addEffectOffOption(app, "--effect-off", &effects_off,
                             "switch one of the profile's sensor effects off by name (repeatable), "
                             "to see what each costs the calibration");
@@ -126,7 +131,9 @@ int main(int argc, char** argv) {
     auto sim = sim::loadScenario(rig, scene, opt);
     const sim::SceneConfig cfg = sim::loadSceneConfig(scene);
     if (!cfg.calibration_target) fail(scene, ": no calibration_target");
-    const cal::ObservationSet set = capture(*sim, *cfg.calibration_target, frames);
+    capture_options.weak_return_model = !no_weak_return;
+    const cal::ObservationSet set =
+        capture(*sim, *cfg.calibration_target, frames, capture_options);
     cal::saveObservations(set, out);
     if (!true_rig.empty()) {
       std::ofstream f(true_rig);
