@@ -73,7 +73,9 @@ double feed(DriftWatch* w, const Eigen::Vector3d& shift, double t0, double t1, b
   const Eigen::Vector3d u(1, 0, 0);
   double when = -1;
   for (double t = t0; t < t1; t += 1.0 / 30) {
-    w->update(static_cast<int64_t>(t * 1e9), {{"cam1", syntheticObservation(shift, u, 6.5)}});
+    DriftObservations obs;
+    obs["cam1"][0] = syntheticObservation(shift, u, 6.5);
+    w->updateByEnd(static_cast<int64_t>(t * 1e9), obs);
     if (when < 0 && w->flagged("cam1") == want_flag) when = t;
   }
   return when;
@@ -100,7 +102,7 @@ TEST(DriftWatch, FlagsWithTheTimeConstantAndReleasesWithHysteresis) {
   EXPECT_NEAR(r.status()[0].rotation, 0.5 * (1 - std::exp(-3.0 + 1.0 / 30)), 0.02);
   EXPECT_NEAR(r.status()[0].ray_shift, 0.0, 1e-9);
   // An unmeasured cycle keeps the estimate.
-  r.update(static_cast<int64_t>(5e9), {});
+  r.updateByEnd(static_cast<int64_t>(5e9), {});
   EXPECT_TRUE(r.flagged("cam1"));
   EXPECT_FALSE(r.status()[0].measured);
 }

@@ -102,13 +102,6 @@ ShiftObservation observeShift(const std::vector<Eigen::Vector3f>& points,
   return out;
 }
 
-void DriftWatch::update(int64_t stamp_ns,
-                        const std::map<std::string, ShiftObservation>& observations) {
-  DriftObservations by_end;
-  for (const auto& [name, obs] : observations) by_end[name][0] = obs;
-  updateByEnd(stamp_ns, by_end);
-}
-
 void DriftWatch::updateByEnd(int64_t stamp_ns, const DriftObservations& observations) {
   for (auto& [name, s] : cams_) {
     s.measured = false;
@@ -168,7 +161,7 @@ void DriftWatch::updateCamera(int64_t stamp_ns, unsigned ends, double ray,
   // that it follows them with baseline_time_constant (0: never) while the camera is not
   // flagged. A set seen for the first time later (an end that comes into view) is learned then:
   // its cycles change the camera's disagreement, not its shift.
-  EndBaseline& b = baselines_[s.camera][ends & (kEndSets - 1)];
+  SetBaseline& b = baselines_[s.camera][ends & (kEndSets - 1)];
   if (b.samples == 0) b.first_stamp_ns = stamp_ns;
   ++b.samples;
   b.learning = static_cast<double>(stamp_ns - b.first_stamp_ns) * 1e-9 < config_.learn_time;
@@ -187,7 +180,7 @@ void DriftWatch::updateCamera(int64_t stamp_ns, unsigned ends, double ray,
   // Exponential weight over capture time; while no set is learned, at least the plain mean's.
   double a = weight(s.last_stamp_ns, config_.time_constant);
   s.learning = true;
-  for (const EndBaseline& x : baselines_[s.camera])
+  for (const SetBaseline& x : baselines_[s.camera])
     s.learning = s.learning && (x.samples == 0 || x.learning);
   if (s.learning) a = std::max(a, 1.0 / static_cast<double>(s.samples));
   s.disagreement_ray += a * (ray - s.disagreement_ray);

@@ -108,8 +108,6 @@ class DriftWatch {
   /// and only changes from a learned baseline count. Cameras without an observation keep their
   /// estimate and flag (measured = false).
   void updateByEnd(int64_t stamp_ns, const DriftObservations& observations);
-  /// The same with one observation per camera, all of one end.
-  void update(int64_t stamp_ns, const std::map<std::string, ShiftObservation>& observations);
   bool flagged(const std::string& camera) const;
   /// How far past its limits a camera is: max(|ray shift| / max_ray_shift, rotation /
   /// max_rotation, its absolute disagreement's ratio / absolute_factor) (0 for an unknown
@@ -124,7 +122,7 @@ class DriftWatch {
 
  private:
   /// One camera's learned baseline on one set of ends.
-  struct EndBaseline {
+  struct SetBaseline {
     double ray = 0.0;  ///< [m]
     Eigen::Vector3d angle = Eigen::Vector3d::Zero();  ///< [rad]
     size_t samples = 0;
@@ -141,7 +139,7 @@ class DriftWatch {
   double absoluteExcess(const CameraDriftStatus& s) const;
   EstimatorConfig::Drift config_;
   std::map<std::string, CameraDriftStatus> cams_;
-  std::map<std::string, std::array<EndBaseline, kEndSets>> baselines_;
+  std::map<std::string, std::array<SetBaseline, kEndSets>> baselines_;
 };
 
 /// "shift along the view ray +12.3 mm, rotation 0.45 deg" (since the baseline) for a message.
