@@ -23,6 +23,7 @@ import subprocess
 import numpy as np
 
 import sensor_check_lib as lib
+import sensor_edge_lib as edgelib
 
 WHITE_PAPER_REFLECTIVITY = 0.8   # simulator reflectivity of the board's white paper (NIR, ~80 %)
 DARK_LAW_MIN_DIST = 0.75        # [m] where no bright square saturates (sensor_check table)
@@ -30,6 +31,8 @@ IR_SATURATION_DN = 60000         # bright-square amplitudes above this are treat
 SIM_CAMERA = dict(width=512, height=424, fx=365.4, fy=365.4, cx=260.9, cy=205.6)  # nominal Kinect v2
 BIAS_POWERS = (0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0)  # candidate powers of the bias law
 MIN_BIN_FRAMES = 10              # a bin counts toward the targets with at least this many frames
+DEFAULT_BACKGROUND_M = 0.21      # behind a simulated board whose real frame has no edge measure:
+                                 # the recording's median (sensor_check's edge table, 0.21-0.26 m)
 
 # Targets of the comparison (the sensor-realism issue): ratio band, absolute differences.
 RATIO_BAND = (0.8, 1.25)
@@ -199,51 +202,75 @@ def frame_reflectivities(f, r):
     return min(bright, 1.0), min(dark, 1.0)
 
 
-def simulate_frames(tool, res, f, out_dir, profile="kinect_v2_calibrated", seed=1, off=(), board=None):
+def background_behind(r):
+    """The plane behind the simulated board [m along its normal]: what the real frame's edges
+    found behind the board (along z, hence the cosine), else DEFAULT_BACKGROUND_M."""
+    back = r.get("edge_back_mm", float("nan"))
+    if not np.isfinite(back):
+        return DEFAULT_BACKGROUND_M
+    return back / 1000.0 * math.cos(math.radians(r["incidence_deg"]))
+
+
+def simulate_frames(tool, res, f, out_dir, profile="kinect_v2_calibrated", seed=1, off=(), board=None,
+                    edges=True, params=(), repeat=2, quiet=False, edges_before_refit=False):
     """Renders every measured real pose twice (two noise draws) with `tool` (render_board) and
-    measures the simulated frames like the real ones. Returns (results, temporal)."""
+    measures the simulated frames like the real ones (with edges, the edge measures too, before
+    a plane as far behind the board as the real frame's edges found). Returns (results, temporal)."""
     board = board or lib.Board()
     os.makedirs(out_dir, exist_ok=True)
     poses = os.path.join(out_dir, "poses.csv")
     import cv2
     with open(poses, "w", newline="") as fh:
         w = csv.writer(fh)
-        w.writerow(["frame", "rx", "ry", "rz", "tx", "ty", "tz", "bright_reflectivity", "dark_reflectivity"])
+        w.writerow(["frame", "rx", "ry", "rz", "tx", "ty", "tz", "bright_reflectivity", "dark_reflectivity",
+                    "background_behind"])
         for r in res["results"]:
             rvec, _ = cv2.Rodrigues(r["R"])
             rb, rd = frame_reflectivities(f, r)
             w.writerow([r["frame"]] + [f"{v:.9g}" for v in rvec.ravel()] + [f"{v:.9g}" for v in r["t"]]
-                       + [f"{rb:.6g}", f"{rd:.6g}"])
+                       + [f"{rb:.6g}", f"{rd:.6g}", f"{background_behind(r):.6g}"])
     cmd = [tool, "--poses", poses, "--out", out_dir, "--profile", profile, "--seed", str(seed),
-           "--repeat", "2", "--dark-parity", str(res["dark_parity"]),
+           "--repeat", str(repeat), "--margin-reflectivity-ratio", f"{res.get('margin_ratio', 1.0):.4g}",
+           "--dark-parity", str(res["dark_parity"]),
            "--cols", str(board.cols), "--rows", str(board.rows), "--square", str(board.square)]
     for k, v in SIM_CAMERA.items():
         cmd += [f"--{k}", str(v)]
     for e in off:
         cmd += ["--off", e]
-    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+    if edges_before_refit:
+        cmd.append("--edges-before-refit")
+    for p in params:
+        cmd += ["--sensor-param", p]
+    run = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE if quiet else None,
+                         universal_newlines=True)
+    if run.returncode != 0:
+        raise ValueError(f"{' '.join(cmd)} exited with {run.returncode}" + (
+            f": {run.stderr.strip()[-2000:]}" if quiet and run.stderr else ""))
     K = np.array([[SIM_CAMERA["fx"], 0, SIM_CAMERA["cx"]], [0, SIM_CAMERA["fy"], SIM_CAMERA["cy"]], [0, 0, 1]])
     dist = np.zeros(5)
     corners = {}
     with open(os.path.join(out_dir, "corners.csv")) as fh:
         for row in csv.DictReader(fh):
             corners.setdefault(row["frame"], []).append((int(row["i"]), float(row["u"]), float(row["v"])))
-    results, temporal = [], []
+    results, temporal, frames = [], [], {}
     real_groups = {t["frames_names"][0]: t for _, t in res["temporal"]}
     for r in res["results"]:
         name = r["frame"]
         c = np.array([uv for _, *uv in sorted(corners[name])])
-        d0 = cv2.imread(os.path.join(out_dir, f"{name}_0.pgm"), cv2.IMREAD_ANYDEPTH)
-        d1 = cv2.imread(os.path.join(out_dir, f"{name}_1.pgm"), cv2.IMREAD_ANYDEPTH)
+        files = [f"{name}_0.pgm", f"{name}_1.pgm"] if repeat > 1 else [f"{name}.pgm"] * 2
+        d0, d1 = (cv2.imread(os.path.join(out_dir, fn), cv2.IMREAD_ANYDEPTH) for fn in files)
         if d0 is None or d1 is None:
             raise ValueError(f"{out_dir}: the simulated frame {name} was not written")
         m = lib.measure_frame(d0, K, dist, c, board, res["dark_parity"])
         m["frame"] = name
         results.append(m)
-        if name in real_groups:
+        frames[name], frames[name + "_0"], frames[name + "_1"] = (d0, c), (d0, c), (d1, c)
+        if name in real_groups and repeat > 1:
             t = lib.temporal_measures([d0, d1], K, dist, c, board, res["dark_parity"])
             t["frames_names"] = [name + "_0", name + "_1"]
             temporal.append((m["dist_m"], t))
+    if edges:
+        edgelib.add_edges(frames.__getitem__, results, temporal, K, dist, board)
     return results, temporal
 
 
@@ -316,3 +343,75 @@ def compare_text():
             "Kinect v2 intrinsics and no distortion, each square with the reflectivity that gives the fitted\n"
             "amplitude of that frame; two noise draws per pose (the second only for the temporal spread,\n"
             "at the real repeated poses).")
+
+
+# --------------------------------------------------------------------------------------------
+# The edge model (lateral noise and mixed pixels at depth edges) fitted to the board's edges.
+
+# The search: every parameter in turn over its grid, the others held, EDGE_FIT_PASSES times.
+# The mixed-pixel shape is fixed (amplitude-weighted: the edge table's mixed pixels fall near
+# the board, the brighter return, at t = 0.19-0.28, where a plain fraction would put them at 0.5).
+EDGE_GRID = [
+    ("lateral_noise_px", [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.8]),
+    ("edge_invalid_probability", [0.3, 0.4, 0.45, 0.5, 0.55, 0.6, 0.7]),
+    ("flying_probability", [0.2, 0.3, 0.4, 0.45, 0.5, 0.6, 0.7]),
+    ("flying_weight_min", [0.0, 0.1, 0.2, 0.3]),
+    ("flying_weight_max", [0.5, 0.6, 0.7, 0.8, 1.0]),
+]
+EDGE_START = dict(lateral_noise_px=0.8, edge_invalid_probability=0.5, flying_probability=0.5,
+                  flying_weight_min=0.0, flying_weight_max=1.0)
+EDGE_FIT_PASSES = 2
+EDGE_FIT_MEASURES = ("mixed share", "mixed/cross", "invalid/cross", "edge sd px", "mixed t median")
+
+
+def edge_params(values):
+    """--sensor-param assignments of an edge model."""
+    return [f"{k}={v:g}" for k, v in values.items()] + ["flying_amplitude_weighted=1"]
+
+
+def edge_score(real_rows, sim_rows):
+    """Sum over bins with the target and the fitted measures of log(sim/real)^2."""
+    rows = [r for r in edgelib.compare_edges(real_rows, sim_rows)
+            if r[6] is not None and r[2] in EDGE_FIT_MEASURES]
+    return float(sum(math.log(max(r[5], 0.05)) ** 2 for r in rows))
+
+
+def _edge_eval(job):
+    tool, res, f, board, values, out_dir = job
+    sim, _ = simulate_frames(tool, res, f, out_dir, params=edge_params(values), repeat=1, board=board,
+                             quiet=True)
+    return edgelib.edge_bin_table(sim)
+
+
+def fit_edge_model(tool, res, f, work_dir, board=None, jobs=2, log=print):
+    """Fits the edge model's parameters to res's edge measures (edgelib.add_edges first) by a
+    coordinate search over EDGE_GRID (each candidate: every measured pose rendered once through
+    render_board). Returns (values, score, trace [(values, score)])."""
+    import multiprocessing
+    real_rows = edgelib.edge_bin_table(res["results"])
+    cache = {}
+    best = dict(EDGE_START)
+    trace = []
+
+    def evaluate(cands):
+        todo = [c for c in cands if tuple(sorted(c.items())) not in cache]
+        jobs_ = [(tool, res, f, board, c, os.path.join(work_dir, f"cand{len(cache) + i}"))
+                 for i, c in enumerate(todo)]
+        with multiprocessing.Pool(max(1, jobs)) as pool:
+            for c, rows in zip(todo, pool.map(_edge_eval, jobs_)):
+                cache[tuple(sorted(c.items()))] = edge_score(real_rows, rows)
+                trace.append((dict(c), cache[tuple(sorted(c.items()))]))
+                log(f"  edge fit {len(cache):3d}: " + " ".join(f"{k}={v:g}" for k, v in c.items())
+                    + f"  score {trace[-1][1]:.3f}")
+        return [cache[tuple(sorted(c.items()))] for c in cands]
+
+    best_score = evaluate([best])[0]
+    for _ in range(EDGE_FIT_PASSES):
+        for key, grid in EDGE_GRID:
+            cands = [dict(best, **{key: v}) for v in grid]
+            cands = [c for c in cands if c["flying_weight_min"] < c["flying_weight_max"]]
+            scores = evaluate(cands)
+            k = int(np.argmin(scores))
+            if scores[k] < best_score:
+                best, best_score = cands[k], scores[k]
+    return best, best_score, trace

@@ -35,17 +35,19 @@ struct SequenceStats {
 };
 
 /// The thesis-lab simulator on a scene (simulated detector); with `pipe_type`, every joint is of
-/// that catalogue entry.
+/// that catalogue entry. The figures asserted here were set on the simulator's edge model before
+/// its fit to a real board's silhouette (sim::useEdgeModelBeforeRefit), and are asserted there;
+/// `edges_refit` renders the profile's edges as fitted (what that fit costs the estimator:
+/// ThesisVerticalErrorTargetsHoldOnASecondSeed, docs/results.md).
 std::unique_ptr<sim::RigSimulator> makeSimulator(
     const std::string& scene, uint32_t seed, const std::string& profile = "kinect_v2_calibrated",
-    bool before_fit = false, const std::string& pipe_type = "") {
+    bool before_fit = false, const std::string& pipe_type = "", bool edges_refit = false) {
   const std::string dir = DRILL_PIPE_POSE_SOURCE_DIR;
   sim::SimulatorOptions opt;
   opt.profile = profile;
-  if (before_fit) {
-    opt.effects = sim::sensorProfile(profile);
-    sim::useModelBeforeFit(&*opt.effects);
-  }
+  opt.effects = sim::sensorProfile(profile);
+  if (before_fit) sim::useModelBeforeFit(&*opt.effects);
+  if (!edges_refit) sim::useEdgeModelBeforeRefit(&*opt.effects);
   opt.seed = seed;
   opt.pipe_type = pipe_type;
   opt.sensor_config_dir = dir + "/config/sensors";
@@ -80,8 +82,9 @@ std::vector<CameraInput> renderCycle(sim::RigSimulator& simulator, int k) {
 /// (as the rig file of simulate_bag --true-rig gives it).
 SequenceStats runScenario(const std::string& scene, const std::string& profile, uint32_t seed,
                           int cycles, EstimatorMethod method = EstimatorMethod::kOurs,
-                          bool before_fit = false, bool true_depth_correction = false) {
-  auto simulator = makeSimulator(scene, seed, profile, before_fit);
+                          bool before_fit = false, bool true_depth_correction = false,
+                          bool edges_refit = false) {
+  auto simulator = makeSimulator(scene, seed, profile, before_fit, "", edges_refit);
   EstimatorConfig cfg = configIn(*simulator);
   cfg.method = method;
   // The sensor model before its fit has no weak-return effects: configured as such.
@@ -249,19 +252,30 @@ TEST(EstimatorOnSimulator, CroppedDepthGivesTheSamePosesAsFull) {
 // threads 117.5 mm deep, not 140; counterbore 134.95 mm, pin 133.35 mm at the shoulder) the
 // box end's along-axis spread before the fit reads 3.006 mm on this seed: the 3 mm target is
 // missed by 6 um, and the limit here is 3.05 mm so that a real regression still shows.
+//
+// The edge model fitted to a real board's silhouette (every edge pixel invalid or mixed, the
+// mixed ones kept near the brighter return) costs the box end more than the targets allow: on
+// this seed 7.5 mm mean (5.4 mm of it along the axis, downwards) and 5.7 mm along-axis spread,
+// 0.44 deg (docs/results.md has the held-out figures). That run asserts the cost stays as
+// measured (mean at most 9 mm, spread at most 7 mm, axis at most 0.6 deg), so that a change
+// that makes it worse shows, and one that wins it back can tighten it.
 TEST(EstimatorOnSimulator, ThesisVerticalErrorTargetsHoldOnASecondSeed) {
-  for (const bool fit : {false, true}) {
+  for (const int model_index : {0, 1, 2}) {
+    const bool fit = model_index > 0, edges_refit = model_index == 2;
     const SequenceStats s = runScenario("thesis_vertical", "kinect_v2_calibrated", 7, 300,
-                                        EstimatorMethod::kOurs, !fit);
-    const std::string model = fit ? "fitted model" : "model before the fit";
+                                        EstimatorMethod::kOurs, !fit, false, edges_refit);
+    const std::string model = edges_refit ? "fitted model, edges refitted"
+                              : fit       ? "fitted model"
+                                          : "model before the fit";
     print("thesis_vertical (seed 7, " + model + ")", s);
     for (int l = 0; l < kNumEnds; ++l) {
       const ErrorStats& st = s.stats[l];
       SCOPED_TRACE(std::string(labelName(static_cast<EndLabel>(l))) + ", seed 7, " + model);
       EXPECT_GE(st.estimates, 295u);
-      EXPECT_LT(st.mean_position_error, 0.005);
-      EXPECT_LT(st.std_position.maxCoeff(), fit ? 0.0035 : 0.00305);
-      EXPECT_LT(st.mean_axis_angle, 0.5 * kDeg);
+      const bool refit_box = edges_refit && l == static_cast<int>(EndLabel::kBoxEnd);
+      EXPECT_LT(st.mean_position_error, refit_box ? 0.009 : 0.005);
+      EXPECT_LT(st.std_position.maxCoeff(), refit_box ? 0.007 : fit ? 0.0035 : 0.00305);
+      EXPECT_LT(st.mean_axis_angle, (refit_box ? 0.6 : 0.5) * kDeg);
     }
   }
 }

@@ -25,6 +25,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 sys.path.insert(0, os.path.join(ROOT, "scripts"))
 import sensor_check_lib as lib  # noqa: E402
+import sensor_edge_lib as edgelib  # noqa: E402
 
 DATA = os.path.join(HERE, "data", "kinect_cal_subset")
 TOOL = os.path.join(ROOT, "scripts", "sensor_check")
@@ -42,6 +43,17 @@ EXPECTED = {
 }
 # Repeated pose 0007 + 0008 (corners within 0.28 px).
 EXPECTED_TEMPORAL = dict(temporal_sd=1.981, temporal_corr=0.5859, pixels=4665)
+# The board's silhouette (sensor_edge_lib), measured with the procedure as committed.
+EXPECTED_EDGES = {
+    "0000": dict(edge_crossings=208, mixed_per_cross=0.1346, invalid_per_cross=0.6538, edge_sd_px=0.4186, mixed_t_median=0.06811, edge_back_mm=1100),
+    "0007": dict(edge_crossings=137, mixed_per_cross=0.562, invalid_per_cross=0.8029, edge_sd_px=0.3699, mixed_t_median=0.0546, edge_back_mm=334.9),
+    "0008": dict(edge_crossings=133, mixed_per_cross=0.5113, invalid_per_cross=0.8947, edge_sd_px=0.3646, mixed_t_median=0.06312, edge_back_mm=335),
+    "0017": dict(edge_crossings=151, mixed_per_cross=0.6821, invalid_per_cross=1.265, edge_sd_px=0.6016, mixed_t_median=0.1293, edge_back_mm=913.5),
+    "0025": dict(edge_crossings=146, mixed_per_cross=0.4795, invalid_per_cross=1.445, edge_sd_px=0.3684, mixed_t_median=0.2112, edge_back_mm=217.7),
+    "0026": dict(edge_crossings=154, mixed_per_cross=0.6039, invalid_per_cross=1.318, edge_sd_px=0.4266, mixed_t_median=0.3765, edge_back_mm=220.5),
+    "0101": dict(edge_crossings=130, mixed_per_cross=1.0, invalid_per_cross=1.469, edge_sd_px=0.6372, mixed_t_median=0.188, edge_back_mm=217.4),
+}
+EXPECTED_TEMPORAL_EDGE_SD = 0.3676   # px, 0007 + 0008
 EXPECTED_DEPTH_SHIFT = 23.33      # pixel-pooled mean(z_pnp - z) over the subset [mm]
 EXPECTED_SLOPE = -52.0            # offset growth with range over the subset [mm/m]
 
@@ -60,6 +72,16 @@ def band(key, value):
         return 0.005                                   # fraction
     if key == "pnp_offset":
         return 3.0                                     # mm (jitter: <= 2.4 at 1.5 m)
+    # Edge measures count pixels along crossings placed by the PnP pose: a numerical change of
+    # the pose can move a crossing's pixels, so the bands allow a few crossings to change.
+    if key == "edge_crossings":
+        return 0.03 * value + 2
+    if key in ("mixed_per_cross", "invalid_per_cross"):
+        return 0.05
+    if key in ("edge_sd_px", "mixed_t_median"):
+        return 0.03
+    if key == "edge_back_mm":
+        return 0.02 * value
     raise KeyError(key)
 
 
@@ -124,6 +146,14 @@ class SensorCheckOnSubset(unittest.TestCase):
         finally:
             lib.WINDOW_MARGIN, lib.OUTLIER_K = saved
 
+    def test_edges_within_bands(self):
+        edgelib.add_edges(lambda n: lib.load_frame(DATA, n)[:2], self.res["results"], self.res["temporal"],
+                          self.res["K"], self.res["dist"])
+        for r in self.res["results"]:
+            within(self, r, EXPECTED_EDGES[r["frame"]], r["frame"] + " edges")
+        t = self.res["temporal"][0][1]
+        self.assertLessEqual(abs(t["temporal_edge_sd_px"] - EXPECTED_TEMPORAL_EDGE_SD), 0.03)
+
     def test_misplaced_corner_is_left_out(self):
         depth, corners, _ = lib.load_frame(DATA, "0017")
         bad = corners.copy()
@@ -168,12 +198,74 @@ class SensorCheckCommandLine(unittest.TestCase):
         self.assertEqual(p.returncode, 0, p.stderr)
         self.assertIn("Procedure (this text is the definition", p.stdout)
         self.assertIn("Dark squares: (i + j) % 2 == 1", p.stdout)
-        rows = {ln.split()[0]: ln.split() for ln in p.stdout.splitlines()
-                if ln.strip()[:4] in ("0.50", "0.75", "1.00", "1.25", "1.50")}
+        rows = {}
+        for ln in p.stdout.splitlines():   # the first table's rows (the edge table follows)
+            if ln.strip()[:4] in ("0.50", "0.75", "1.00", "1.25", "1.50"):
+                rows.setdefault(ln.split()[0], ln.split())
         self.assertEqual({k: v[1] for k, v in rows.items()},
                          {"0.50-0.75": "3", "0.75-1.00": "1", "1.00-1.25": "1", "1.25-1.50": "1",
                           "1.50-1.75": "1"})
         self.assertIn("Repeated pose 0007+0008", p.stdout)
+        self.assertIn("Edge procedure (the board's silhouette", p.stdout)
+        self.assertIn("Edges of the board", p.stdout)
+
+
+class EdgeMeasuresOnASyntheticBoard(unittest.TestCase):
+    """A board drawn exactly (pinhole, no noise) before a wall 0.2 m behind it: the measure must
+    find no mixed and no invalid pixel and a straight edge; with every board pixel at the
+    silhouette invalid, or moved halfway to the wall, it must count them."""
+
+    K = np.array([[365.0, 0, 256.0], [0, 365.0, 212.0], [0, 0, 1]])
+    DIST = np.zeros(5)
+
+    def board_frame(self):
+        board = lib.Board()
+        R = cv2_rotation([0.25, -0.2, 0.05])
+        t = np.array([-0.06, -0.09, 1.0])
+        rays = lib.pixel_rays((424, 512), self.K, self.DIST)
+        u, v, zp = lib.board_coords(rays, R, t)
+        on = (u > -0.06) & (u < 0.21) & (v > -0.06) & (v < 0.27)
+        r3 = np.concatenate([rays, np.ones(rays.shape[:2] + (1,))], axis=-1)
+        n, d = R[:, 2], float(R[:, 2] @ t)
+        z_wall = (d + 0.2) / (r3 @ n)                    # a plane parallel to the board, 0.2 m behind
+        depth = np.where(on, zp, z_wall) * 1000.0
+        corners, _ = cv2_project(board.object_points(), R, t, self.K)
+        edge = on & ~(np.roll(on, 1, 0) & np.roll(on, -1, 0) & np.roll(on, 1, 1) & np.roll(on, -1, 1))
+        return depth, corners, edge, zp, z_wall
+
+    def test_clean_edge(self):
+        depth, corners, _, _, _ = self.board_frame()
+        m = edgelib.measure_edges(np.round(depth).astype(np.uint16), self.K, self.DIST, corners)
+        self.assertGreater(m["edge_crossings"], 300)      # 332: about one per pixel of the sides
+        self.assertEqual(m["edge_sides"], 4)
+        self.assertEqual(m["mixed_per_cross"], 0.0)
+        self.assertEqual(m["invalid_per_cross"], 0.0)
+        self.assertLess(m["edge_sd_px"], 0.35)            # the pixel grid alone
+        self.assertAlmostEqual(m["edge_back_mm"], 200 / np.cos(np.radians(18)), delta=25)
+
+    def test_invalid_and_mixed_edge_pixels_counted(self):
+        depth, corners, edge, zp, z_wall = self.board_frame()
+        bad = depth.copy()
+        bad[edge] = 0
+        m = edgelib.measure_edges(np.round(bad).astype(np.uint16), self.K, self.DIST, corners)
+        self.assertGreater(m["invalid_per_cross"], 0.9)
+        self.assertEqual(m["mixed_per_cross"], 0.0)
+        mixed = depth.copy()
+        mixed[edge] = 500.0 * (zp[edge] + z_wall[edge])
+        m = edgelib.measure_edges(np.round(mixed).astype(np.uint16), self.K, self.DIST, corners)
+        self.assertGreater(m["mixed_share"], 0.9)
+        self.assertAlmostEqual(m["mixed_t_median"], 0.5, delta=0.05)
+
+
+def cv2_rotation(rvec):
+    import cv2
+    return cv2.Rodrigues(np.array(rvec, float))[0]
+
+
+def cv2_project(points, R, t, K):
+    import cv2
+    img, _ = cv2.projectPoints(points, cv2.Rodrigues(R)[0], t, K, np.zeros(5))
+    return img.reshape(-1, 2), None
 
 
 if __name__ == "__main__":

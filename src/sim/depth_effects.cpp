@@ -37,14 +37,15 @@ double inverseNormalCdf(double p) {
          (((((b[0] * r + b[1]) * r + b[2]) * r + b[3]) * r + b[4]) * r + 1);
 }
 
-/// Lateral pixel shift tables: for sigma = 0.8 + 0.1 k px, 256 entries of round(N(0, sigma)),
-/// clamped to +-3 px.
-constexpr int kLateralTables = 30;
+/// Lateral pixel shift tables: for sigma = kLateralMinPx + 0.1 k px, 256 entries of
+/// round(N(0, sigma)), clamped to +-3 px.
+constexpr int kLateralTables = 38;
+constexpr float kLateralMinPx = 0.1f;
 const std::vector<std::array<int8_t, 256>>& lateralTables() {
   static const std::vector<std::array<int8_t, 256>> tables = [] {
     std::vector<std::array<int8_t, 256>> t(kLateralTables);
     for (int k = 0; k < kLateralTables; ++k) {
-      const double sigma = 0.8 + 0.1 * k;
+      const double sigma = kLateralMinPx + 0.1 * k;
       for (int i = 0; i < 256; ++i) {
         const double x = sigma * inverseNormalCdf((i + 0.5) / 256.0);
         t[k][i] = static_cast<int8_t>(std::clamp<long>(std::lround(x), -3, 3));
@@ -53,6 +54,32 @@ const std::vector<std::array<int8_t, 256>>& lateralTables() {
     return t;
   }();
   return tables;
+}
+
+/// The 4-neighbour with a return whose depth differs most from z, around source pixel (su, sv).
+struct EdgeNeighbour {
+  float jump = 0.0f, z = 0.0f;
+  size_t index = 0;
+};
+EdgeNeighbour largestJump(const float* Z, int W, int H, int su, int sv, float z) {
+  EdgeNeighbour nb;
+  const int nu[4] = {su - 1, su + 1, su, su};
+  const int nv[4] = {sv, sv, sv - 1, sv + 1};
+  for (int q = 0; q < 4; ++q) {
+    if (nu[q] < 0 || nu[q] >= W || nv[q] < 0 || nv[q] >= H) continue;
+    const size_t k = static_cast<size_t>(nv[q]) * W + nu[q];
+    if (Z[k] > 0 && std::abs(Z[k] - z) > nb.jump) nb = {std::abs(Z[k] - z), Z[k], k};
+  }
+  return nb;
+}
+
+/// How far a mixed pixel's depth moves towards its neighbour's: the drawn share itself, or,
+/// amplitude-weighted, the share is the neighbour's part of the pixel's footprint and the depth
+/// read is the mean of the two returns weighted by their amplitudes (a_self, a_nb).
+float mixedWeight(float share, bool amplitude_weighted, float a_self, float a_nb) {
+  if (!amplitude_weighted) return share;
+  const float self = (1.0f - share) * a_self, other = share * a_nb;
+  return self + other > 0 ? other / (self + other) : 0.0f;
 }
 
 }  // namespace
@@ -189,6 +216,11 @@ void applyDepthEffects(const SensorEffects& fx, const DepthSceneView& in, double
   const float inv_s_ramp =
       1.0f / std::max(static_cast<float>(fx.saturation_amplitude_high) - s_lo, 1e-9f);
   const float flying_p = static_cast<float>(fx.flying_probability);
+  const float invalid_p = static_cast<float>(fx.edge_invalid_probability);
+  const float w_lo = static_cast<float>(fx.flying_weight_min);
+  const float w_span = static_cast<float>(fx.flying_weight_max - fx.flying_weight_min);
+  const float lateral_px = static_cast<float>(fx.lateral_noise_px);
+  const bool amplitude_weighted = fx.flying_amplitude_weighted;
   const float jump = static_cast<float>(fx.flying_jump);
   const float offset = static_cast<float>(depth_offset);
   const float scale = static_cast<float>(depth_scale);
@@ -218,8 +250,9 @@ void applyDepthEffects(const SensorEffects& fx, const DepthSceneView& in, double
       if (lateral_on && (!fx.lateral_noise_at_edges_only ||
                          (Z[i] > 0 && atDepthEdge(Z, W, H, u, v, jump)))) {
         const float g = std::sqrt(in.g2[i]);
-        const float sigma_px = 0.8f + 0.035f * g;  // Fankhauser et al. 2015, lateral
-        const int k = std::min(kLateralTables - 1, static_cast<int>((sigma_px - 0.8f) * 10.0f));
+        const float sigma_px = lateral_px + 0.035f * g;  // Fankhauser et al. 2015, lateral
+        const int k = std::clamp(static_cast<int>((sigma_px - kLateralMinPx) * 10.0f + 1e-3f), 0,
+                                 kLateralTables - 1);
         su = std::clamp(u + lateral[k][bits & 0xFF], 0, W - 1);
         sv = std::clamp(v + lateral[k][(bits >> 8) & 0xFF], 0, H - 1);
         s = static_cast<size_t>(sv) * W + su;
@@ -227,21 +260,17 @@ void applyDepthEffects(const SensorEffects& fx, const DepthSceneView& in, double
       float z = Z[s];
       if (!(z > 0)) continue;
       if (flying_on) {
-        // Largest depth jump to a 4-neighbour of the source pixel.
-        float znb = z, best = 0.0f;
-        const int nu[4] = {su - 1, su + 1, su, su};
-        const int nv[4] = {sv, sv, sv - 1, sv + 1};
-        for (int q = 0; q < 4; ++q) {
-          if (nu[q] < 0 || nu[q] >= W || nv[q] < 0 || nv[q] >= H) continue;
-          const float zn = Z[static_cast<size_t>(nv[q]) * W + nu[q]];
-          if (zn > 0 && std::abs(zn - z) > best) {
-            best = std::abs(zn - z);
-            znb = zn;
+        const EdgeNeighbour nb = largestJump(Z, W, H, su, sv, z);
+        if (nb.jump > jump) {
+          // One draw decides: invalid below invalid_p, mixed in the next flying_p.
+          const float u_edge = ((bits >> 16) & 0xFFFF) * (1.0f / 65536.0f);
+          if (u_edge < invalid_p) continue;
+          if (u_edge < invalid_p + flying_p) {
+            const float share = w_lo + w_span * (((bits >> 48) & 0xFFFF) * (1.0f / 65536.0f));
+            z += mixedWeight(share, amplitude_weighted, amplitudeAt(s, z),
+                             amplitudeAt(nb.index, nb.z)) *
+                 (nb.z - z);
           }
-        }
-        if (best > jump && ((bits >> 16) & 0xFFFF) * (1.0f / 65536.0f) < flying_p) {
-          const float w = ((bits >> 48) & 0xFFFF) * (1.0f / 65536.0f);
-          z += w * (znb - z);
         }
       }
       if (z < zmin || z > zmax) continue;

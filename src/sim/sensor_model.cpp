@@ -117,6 +117,64 @@ void switchOffEffect(SensorEffects* effects, const std::string& name) {
   fail("unknown sensor effect \"", name, "\" (expected one of ", names, ")");
 }
 
+void setEffectParameter(SensorEffects* effects, const std::string& name, double value) {
+  struct Field {
+    const char* name;
+    double SensorEffects::*field;
+    double lo, hi;
+  };
+  const Field fields[] = {
+      {"lateral_noise_px", &SensorEffects::lateral_noise_px, 0.0, 3.0},
+      {"flying_probability", &SensorEffects::flying_probability, 0.0, 1.0},
+      {"edge_invalid_probability", &SensorEffects::edge_invalid_probability, 0.0, 1.0},
+      {"flying_weight_min", &SensorEffects::flying_weight_min, 0.0, 1.0},
+      {"flying_weight_max", &SensorEffects::flying_weight_max, 0.0, 1.0},
+      {"flying_jump", &SensorEffects::flying_jump, 0.0, 10.0},
+  };
+  std::string names = "flying_amplitude_weighted";
+  if (name == names) {
+    if (value != 0.0 && value != 1.0) fail("sensor parameter ", name, " must be 0 or 1, got ", value);
+    effects->flying_amplitude_weighted = value != 0.0;
+    return;
+  }
+  for (const Field& f : fields) {
+    if (name == f.name) {
+      if (!(value >= f.lo && value <= f.hi))
+        fail("sensor parameter ", name, " must be in [", f.lo, ", ", f.hi, "], got ", value);
+      effects->*(f.field) = value;
+      return;
+    }
+    names += std::string(", ") + f.name;
+  }
+  fail("unknown sensor parameter \"", name, "\" (expected one of ", names, ")");
+}
+
+void setEffectParameter(SensorEffects* effects, const std::string& assignment) {
+  const size_t eq = assignment.find('=');
+  if (eq == std::string::npos || eq == 0)
+    fail("sensor parameter \"", assignment, "\": expected NAME=VALUE");
+  const std::string value = assignment.substr(eq + 1);
+  size_t used = 0;
+  double x = 0;
+  try {
+    x = std::stod(value, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != value.size())
+    fail("sensor parameter \"", assignment, "\": \"", value, "\" is not a number");
+  setEffectParameter(effects, assignment.substr(0, eq), x);
+}
+
+void useEdgeModelBeforeRefit(SensorEffects* effects) {
+  effects->lateral_noise_px = 0.8;
+  effects->edge_invalid_probability = 0.0;
+  effects->flying_probability = 0.35;
+  effects->flying_weight_min = 0.0;
+  effects->flying_weight_max = 1.0;
+  effects->flying_amplitude_weighted = false;
+}
+
 void useModelBeforeFit(SensorEffects* effects) {
   effects->amplitude_noise = effects->correlated_noise = false;
   effects->brightness_bias = effects->saturation = effects->depth_scale = false;
@@ -130,9 +188,9 @@ double axialNoiseSigma(double z, double theta, double max_incidence_rad) {
   return std::max(mm, 0.1) * 1e-3;
 }
 
-double lateralNoiseSigmaPx(double theta, double max_incidence_rad) {
+double lateralNoiseSigmaPx(double theta, double max_incidence_rad, double head_on_px) {
   theta = std::clamp(std::abs(theta), 0.0, max_incidence_rad);
-  return 0.8 + 0.035 * theta / (M_PI_2 - theta);
+  return head_on_px + 0.035 * theta / (M_PI_2 - theta);
 }
 
 }  // namespace drill_pipe_pose::sim

@@ -4,15 +4,17 @@
 // frames of the board.
 //
 //   render_board --poses POSES.csv --out DIR [--profile kinect_v2_calibrated] [--off EFFECT ...]
-//       [--seed 1] [--repeat 1] [--fx --fy --cx --cy --width --height] [--cols 5 --rows 7]
-//       [--square 0.03] [--margin 0.03] [--dark-parity 1] [--bright-reflectivity 0.6]
+//       [--sensor-param NAME=VALUE ...] [--edges-before-refit] [--seed 1] [--repeat 1] [--fx --fy --cx --cy --width --height] [--cols 5 --rows 7]
+//       [--square 0.03] [--margin 0.03] [--margin-reflectivity-ratio 1] [--dark-parity 1] [--bright-reflectivity 0.6]
 //       [--dark-reflectivity 0.04] [--background-distance 0] [--depth-offset 0]
 //
 // POSES.csv: header `frame,rx,ry,rz,tx,ty,tz`, one row per board pose in the depth camera's
 // optical frame: OpenCV rvec (Rodrigues, rad) and tvec (m), p_cam = R(rvec) p_board + t. With
 // the header `frame,rx,ry,rz,tx,ty,tz,bright_reflectivity,dark_reflectivity` each row also sets
 // its squares' reflectivities (in [0, 1]; the sensor check gives each real frame's its fitted
-// amplitude), overriding --bright-reflectivity / --dark-reflectivity. Board
+// amplitude), overriding --bright-reflectivity / --dark-reflectivity; a tenth column
+// `background_behind` [m] (> 0) puts a plane parallel to the board that far behind it (what the
+// sensor check finds behind the real board's edges), in place of the --background-distance wall. Board
 // frame: origin at the first inner corner, x along a row of `cols` corners, y along a column of
 // `rows` corners, z the board normal. `frame` names the output files.
 //
@@ -56,13 +58,14 @@ namespace {
 
 struct Options {
   std::string poses, out, profile = "kinect_v2_calibrated";
-  std::vector<std::string> off;
+  std::vector<std::string> off, sensor_params;
+  bool edges_before_refit = false;
   uint64_t seed = 1;
   int repeat = 1;
   double fx, fy, cx, cy;  // defaults: the built-in Kinect v2 depth camera (parseArgs)
   int width, height;
   int cols = 5, rows = 7, dark_parity = 1;
-  double square = 0.03, margin = 0.03;
+  double square = 0.03, margin = 0.03, margin_ratio = 1.0;
   double bright_reflectivity = 0.6, dark_reflectivity = 0.04;
   double background_distance = 0.0, background_reflectivity = 0.3;
   double depth_offset_mm = 0.0;
@@ -71,7 +74,7 @@ struct Options {
 /// The chessboard's printed layout and reflectivities.
 struct Board {
   int cols, rows, dark_parity;
-  double square, margin;
+  double square, margin, margin_ratio;
   float bright, dark;
 
   /// Whether board point (x, y) lies on the board (squares or margin).
@@ -83,7 +86,8 @@ struct Board {
   float reflectivity(double x, double y) const {
     const int i = static_cast<int>(std::floor(x / square));
     const int j = static_cast<int>(std::floor(y / square));
-    if (i < -1 || i > cols - 1 || j < -1 || j > rows - 1) return bright;  // the margin
+    if (i < -1 || i > cols - 1 || j < -1 || j > rows - 1)
+      return static_cast<float>(bright * margin_ratio);  // the margin
     return ((i + j) % 2 + 2) % 2 == dark_parity ? dark : bright;
   }
 };
@@ -93,6 +97,7 @@ struct BoardPose {
   std::string frame;
   Eigen::Isometry3d T_cam_board = Eigen::Isometry3d::Identity();
   double bright_reflectivity = -1, dark_reflectivity = -1;  ///< < 0: the options' values
+  double background_behind = 0;  ///< [m] > 0: a plane parallel to the board this far behind it
 };
 
 Options parseArgs(int argc, char** argv) {
@@ -119,6 +124,11 @@ Options parseArgs(int argc, char** argv) {
       ->check(tools::throwingCheck("PROFILE", [](const std::string& v) { sim::sensorProfile(v); }));
   tools::addEffectOffOption(app, "--off", &o.off,
                             "switch this sensor effect off (repeatable), e.g. axial_noise");
+  tools::addSensorParamOption(app, "--sensor-param", &o.sensor_params,
+                              "set one numeric sensor parameter (repeatable), e.g. "
+                              "edge_invalid_probability=0.5");
+  app.add_flag("--edges-before-refit", o.edges_before_refit,
+               "the edge model before its fit to a real board's silhouette (docs/sensor_check.md)");
   app.add_option("--seed", o.seed, "random seed of the sensor noise")->capture_default_str();
   app.add_option("--repeat", o.repeat, "noise realisations per pose (> 1: <frame>_<k>.pgm)")
       ->capture_default_str()
@@ -149,6 +159,10 @@ Options parseArgs(int argc, char** argv) {
   app.add_option("--margin", o.margin, "[m] white border beyond the outer squares")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 100.0));
+  app.add_option("--margin-reflectivity-ratio", o.margin_ratio,
+                 "the margin's reflectivity over the bright squares'")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 10.0));
   app.add_option("--dark-parity", o.dark_parity, "square (i, j) is dark when (i + j) mod 2 == P")
       ->capture_default_str()
       ->check(CLI::Range(0, 1));
@@ -185,10 +199,12 @@ std::vector<BoardPose> readPoses(const std::string& path) {
   };
   const std::string plain = "frame,rx,ry,rz,tx,ty,tz";
   const std::string with_refl = plain + ",bright_reflectivity,dark_reflectivity";
-  if (!std::getline(f, line) || (trim(line) != plain && trim(line) != with_refl))
-    fail(path, ": the first line must be the header ", plain, " or ", with_refl, " (got \"",
-         trim(line), "\")");
-  const size_t fields = trim(line) == plain ? 7 : 9;
+  const std::string with_back = with_refl + ",background_behind";
+  if (!std::getline(f, line) ||
+      (trim(line) != plain && trim(line) != with_refl && trim(line) != with_back))
+    fail(path, ": the first line must be the header ", plain, ", ", with_refl, " or ", with_back,
+         " (got \"", trim(line), "\")");
+  const size_t fields = trim(line) == plain ? 7 : trim(line) == with_refl ? 9 : 10;
   std::vector<BoardPose> poses;
   std::set<std::string> seen;
   for (int n = 2; std::getline(f, line); ++n) {
@@ -204,7 +220,7 @@ std::vector<BoardPose> readPoses(const std::string& path) {
         p.frame == "..")
       fail(path, ":", n, ": frame \"", p.frame, "\" is not a file name");
     if (!seen.insert(p.frame).second) fail(path, ":", n, ": frame \"", p.frame, "\" repeats");
-    double x[8];
+    double x[9];
     for (size_t k = 0; k + 1 < fields; ++k) {
       size_t used = 0;
       try {
@@ -219,12 +235,17 @@ std::vector<BoardPose> readPoses(const std::string& path) {
     const double angle = rvec.norm();
     if (angle > 0) p.T_cam_board.linear() = Eigen::AngleAxisd(angle, rvec / angle).matrix();
     p.T_cam_board.translation() = Eigen::Vector3d(x[3], x[4], x[5]);
-    if (fields == 9) {
+    if (fields >= 9) {
       for (int k = 6; k < 8; ++k)
         if (x[k] < 0 || x[k] > 1)
           fail(path, ":", n, ": field ", k + 2, " (a reflectivity) must be in [0, 1], got ", x[k]);
       p.bright_reflectivity = x[6];
       p.dark_reflectivity = x[7];
+    }
+    if (fields == 10) {
+      if (x[8] < 0)
+        fail(path, ":", n, ": field 10 (background_behind, m) must be >= 0, got ", x[8]);
+      p.background_behind = x[8];
     }
     poses.push_back(p);
   }
@@ -237,7 +258,7 @@ struct BoardScene {
   std::vector<float> z, cos_incidence, reflectivity, g2, ray_z;
 
   void cast(const Options& o, const Board& board, const Eigen::Isometry3d& T_cam_board,
-            double max_incidence_rad) {
+            double background_behind, double max_incidence_rad) {
     const size_t n = static_cast<size_t>(o.width) * o.height;
     z.assign(n, 0.0f);
     cos_incidence.assign(n, 0.0f);
@@ -250,6 +271,9 @@ struct BoardScene {
     const Eigen::Vector3d centre =
         T_cam_board * Eigen::Vector3d((o.cols - 1) * o.square / 2, (o.rows - 1) * o.square / 2, 0);
     const double z_wall = centre.z() + o.background_distance;
+    // The plane parallel to the board, background_behind farther from the camera.
+    const double plane_d = normal.dot(t);
+    const double behind_d = plane_d + (plane_d >= 0 ? 1.0 : -1.0) * background_behind;
     for (int v = 0; v < o.height; ++v) {
       for (int u = 0; u < o.width; ++u) {
         const size_t i = static_cast<size_t>(v) * o.width + u;
@@ -264,6 +288,13 @@ struct BoardScene {
             set(i, s * ray.z(), std::abs(nr), board.reflectivity(q.x(), q.y()), max_incidence_rad);
             continue;
           }
+        }
+        if (background_behind > 0) {
+          const double sb = std::abs(nr) > 1e-12 ? behind_d / nr : -1.0;
+          if (sb > 0)
+            set(i, sb * ray.z(), std::abs(nr), static_cast<float>(o.background_reflectivity),
+                max_incidence_rad);
+          continue;
         }
         if (o.background_distance > 0 && z_wall > 0)
           set(i, z_wall, ray.z(), static_cast<float>(o.background_reflectivity),
@@ -335,12 +366,15 @@ int main(int argc, char** argv) {
   const Options o = parseArgs(argc, argv);
   try {
     sim::SensorEffects fx = sim::sensorProfile(o.profile);
+    if (o.edges_before_refit) sim::useEdgeModelBeforeRefit(&fx);
     for (const std::string& e : o.off) sim::switchOffEffect(&fx, e);
+    for (const std::string& p : o.sensor_params) sim::setEffectParameter(&fx, p);
     Board board{o.cols,
                       o.rows,
                       o.dark_parity,
                       o.square,
                       o.margin,
+                      o.margin_ratio,
                       static_cast<float>(o.bright_reflectivity),
                       static_cast<float>(o.dark_reflectivity)};
     const std::vector<BoardPose> poses = readPoses(o.poses);
@@ -358,7 +392,7 @@ int main(int argc, char** argv) {
         board.bright = static_cast<float>(poses[r].bright_reflectivity);
         board.dark = static_cast<float>(poses[r].dark_reflectivity);
       }
-      scene.cast(o, board, poses[r].T_cam_board, max_inc);
+      scene.cast(o, board, poses[r].T_cam_board, poses[r].background_behind, max_inc);
       for (int k = 0; k < o.repeat; ++k) {
         DepthImage img;
         sim::applyDepthEffects(fx, scene.view(o), o.depth_offset_mm * 1e-3, 1.0,

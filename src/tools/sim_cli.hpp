@@ -24,4 +24,19 @@ inline CLI::Option* addEffectOffOption(CLI::App& app, const std::string& flag,
       }));
 }
 
+/// A repeatable option setting one numeric sensor parameter, NAME=VALUE; an assignment
+/// sim::setEffectParameter refuses is refused at parse time with its message.
+inline CLI::Option* addSensorParamOption(CLI::App& app, const std::string& flag,
+                                         std::vector<std::string>* assignments,
+                                         const std::string& doc) {
+  return app.add_option(flag, *assignments, doc)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
+      ->expected(1)
+      ->option_text("NAME=VALUE ...")
+      ->check(throwingCheck("NAME=VALUE", [](const std::string& v) {
+        sim::SensorEffects fx;
+        sim::setEffectParameter(&fx, v);
+      }));
+}
+
 }  // namespace drill_pipe_pose::tools

@@ -259,7 +259,7 @@ void writeTrueRig(const sim::RigSimulator& sim, const std::string& path) {
 
 /// The sensor model's options (profile, seed, sensor files, bumps, effects off, model).
 struct ModelArgs {
-  std::vector<std::string> effects_off, bumps;
+  std::vector<std::string> effects_off, bumps, sensor_params;
   std::string model = "fitted";
 };
 
@@ -287,20 +287,27 @@ void addModelOptions(CLI::App& app, sim::SimulatorOptions* opt, ModelArgs* m) {
                  "support (its axis moves with the tool-joint radius)");
   tools::addEffectOffOption(app, "--effect-off", &m->effects_off,
                             "switch one of the profile's sensor effects off by name (repeatable)");
+  tools::addSensorParamOption(
+      app, "--sensor-param", &m->sensor_params,
+      "set one numeric sensor parameter of the profile (repeatable), e.g. "
+      "lateral_noise_px=0.8 (the edge model before its fit to real frames: docs/sensor_check.md)");
   app.add_option("--model", m->model,
-                 "sensor model: fitted, before-fit (as before the fit to real frames) or additive "
-                 "(the weak-return noise added to the range law)")
+                 "sensor model: fitted, before-fit (as before the fit to real frames), additive "
+                 "(the weak-return noise added to the range law) or edges-before-refit (the edge "
+                 "model before its fit to a real board's silhouette)")
       ->capture_default_str()
-      ->check(CLI::IsMember({"fitted", "before-fit", "additive"}));
+      ->check(CLI::IsMember({"fitted", "before-fit", "additive", "edges-before-refit"}));
 }
 
 /// Applies the parsed ModelArgs to the simulator's options.
 void applyModelArgs(const ModelArgs& m, sim::SimulatorOptions* opt) {
-  if (!m.effects_off.empty() || m.model != "fitted") {
+  if (!m.effects_off.empty() || !m.sensor_params.empty() || m.model != "fitted") {
     sim::SensorEffects fx = sim::sensorProfile(opt->profile);
     if (m.model == "before-fit") sim::useModelBeforeFit(&fx);
+    if (m.model == "edges-before-refit") sim::useEdgeModelBeforeRefit(&fx);
     fx.amplitude_noise_additive = m.model == "additive";
     for (const std::string& e : m.effects_off) sim::switchOffEffect(&fx, e);
+    for (const std::string& p : m.sensor_params) sim::setEffectParameter(&fx, p);
     opt->effects = fx;
   }
   for (const std::string& b : m.bumps) opt->bumps.push_back(sim::parseCameraBump(b));

@@ -39,12 +39,17 @@ struct SensorEffects {
   /// sigma_z[mm] = 1.5 - 0.5 z + 0.3 z^2 + 0.1 z^1.5 theta^2 / (pi/2 - theta)^2 (z [m]).
   bool axial_noise = true;
   double axial_noise_scale = 1.0;  ///< multiplies sigma_z (1 = the paper's fit)
-  /// Lateral noise of the same paper: sigma_L[px] = 0.8 + 0.035 theta / (pi/2 - theta),
+  /// Lateral noise of the same paper: sigma_L[px] = s0 + 0.035 theta / (pi/2 - theta),
   /// realised by reading an output pixel from a randomly shifted source pixel, at depth edges
   /// only (a 4-neighbour differs by more than flying_jump): the paper measured it as the jitter
   /// of an edge, and on smooth tilted surfaces a real Kinect v2 shows no such extra spread (the
   /// bright squares of a chessboard at 0.5-1.5 m and 4-33 deg: docs/sensor_check.md).
   bool lateral_noise = true;
+  /// [px] s0, the sigma head-on. The paper's 0.8 px made a board's silhouette 1.1-1.5 times as
+  /// ragged as a real Kinect v2's behind kinect2_bridge; fitted on that silhouette together with
+  /// the edge pixels below (`scripts/sensor_check DATA --fit-edges`, the iai_kinect2 chessboard
+  /// recording at 0.5-1.5 m).
+  double lateral_noise_px = 0.3;
   bool lateral_noise_at_edges_only = true;  ///< false: every pixel (the model before the fit)
   /// The returned amplitude falls with the range (the ray's length); false: with the depth z
   /// (the model before the fit).
@@ -118,8 +123,26 @@ struct SensorEffects {
   /// Flying (mixed) pixels at depth discontinuities: a ToF pixel straddling an edge mixes the
   /// two returns (Fankhauser et al. 2015 Sec. IV-D; Sarbolandi et al. 2015). libfreenect2's
   /// edge-aware filter removes many of them, hence a probability below 1.
+  /// An edge pixel (a 4-neighbour differs by more than flying_jump) is invalid with
+  /// edge_invalid_probability (the driver's edge-aware filter), else mixed with
+  /// flying_probability: its depth moves towards the neighbour across the jump by a fraction
+  /// drawn uniformly between flying_weight_min and flying_weight_max. The two probabilities
+  /// share one draw: where they sum past 1, the mixed pixels get what the invalid ones leave.
+  /// Fitted (`scripts/sensor_check DATA --fit-edges`, the board's silhouette 0.2 m in front of
+  /// the chair behind it, 0.5-1.5 m): every edge pixel is touched, half invalid, half mixed by
+  /// an area share of 0.1-1 weighted by amplitude. Before the fit: none invalid, 35 % mixed by
+  /// a plain fraction of 0-1 (literature), which gave 0.4 mixed and no invalid pixels per
+  /// crossing of the silhouette against 0.8-1.0 and 1.0-1.2 real.
   bool flying_pixels = true;
-  double flying_probability = 0.35;  ///< per edge pixel
+  double flying_probability = 0.5;  ///< per edge pixel
+  double edge_invalid_probability = 0.5;
+  double flying_weight_min = 0.1;
+  double flying_weight_max = 1.0;
+  /// true: the drawn fraction is the neighbour's share of the pixel's footprint, and the depth
+  /// moves by the neighbour's share of the two returns' amplitudes (a mixed ToF pixel reads
+  /// the amplitude-weighted mean of its two returns, so it stays near the brighter one);
+  /// false: the depth moves by the drawn fraction itself.
+  bool flying_amplitude_weighted = true;
   double flying_jump = 0.05;         ///< [m] neighbour depth difference that makes an edge
   // --- systematic errors
   /// Per-camera residual depth offset, uniform in +-max_depth_offset, seeded per camera.
@@ -179,10 +202,24 @@ SensorEffects sensorProfile(const std::string& name);
 /// InputError naming the valid names for an unknown one.
 void switchOffEffect(SensorEffects* effects, const std::string& name);
 
+/// Sets one numeric parameter of `effects` by its field name (lateral_noise_px,
+/// flying_probability, edge_invalid_probability, flying_weight_min, flying_weight_max,
+/// flying_jump, flying_amplitude_weighted (0 or 1)): for fitting the edge model and for benching a model against another. Throws
+/// InputError naming the valid names for an unknown one, or for a value out of its range.
+void setEffectParameter(SensorEffects* effects, const std::string& name, double value);
+
+/// Parses "NAME=VALUE" and applies it with setEffectParameter; InputError names the text.
+void setEffectParameter(SensorEffects* effects, const std::string& assignment);
+
 /// The sensor model as it was before its fit to real Kinect v2 frames (white axial noise, no
 /// amplitude-dependent effects, lateral noise on every pixel): for before/after comparisons. Its
 /// frames are bit-identical to that model's for the same seed.
 void useModelBeforeFit(SensorEffects* effects);
+
+/// The edge model as it was before its fit to a real board's silhouette (lateral noise 0.8 px
+/// head-on, 35 % of edge pixels mixed by a plain fraction of the jump, none invalid): for
+/// before/after comparisons, and for the regression tests whose figures were set on it.
+void useEdgeModelBeforeRefit(SensorEffects* effects);
 
 /// Axial noise standard deviation [m] at depth z [m] and incidence angle theta [rad]
 /// (Fankhauser et al. 2015, see SensorEffects::axial_noise). theta is clamped to
@@ -190,6 +227,8 @@ void useModelBeforeFit(SensorEffects* effects);
 double axialNoiseSigma(double z, double theta, double max_incidence_rad = 84.0 * M_PI / 180.0);
 
 /// Lateral noise standard deviation [px] at incidence angle theta [rad] (Fankhauser et al. 2015).
-double lateralNoiseSigmaPx(double theta, double max_incidence_rad = 84.0 * M_PI / 180.0);
+/// `head_on_px` is the sigma at theta = 0 (SensorEffects::lateral_noise_px).
+double lateralNoiseSigmaPx(double theta, double max_incidence_rad = 84.0 * M_PI / 180.0,
+                           double head_on_px = 0.8);
 
 }  // namespace drill_pipe_pose::sim
