@@ -133,7 +133,8 @@ void setEffectParameter(SensorEffects* effects, const std::string& name, double 
   };
   std::string names = "flying_amplitude_weighted";
   if (name == names) {
-    if (value != 0.0 && value != 1.0) fail("sensor parameter ", name, " must be 0 or 1, got ", value);
+    if (value != 0.0 && value != 1.0)
+      fail("sensor parameter ", name, " must be 0 or 1, got ", value);
     effects->flying_amplitude_weighted = value != 0.0;
     return;
   }

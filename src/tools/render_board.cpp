@@ -4,9 +4,11 @@
 // frames of the board.
 //
 //   render_board --poses POSES.csv --out DIR [--profile kinect_v2_calibrated] [--off EFFECT ...]
-//       [--sensor-param NAME=VALUE ...] [--edges-before-refit] [--seed 1] [--repeat 1] [--fx --fy --cx --cy --width --height] [--cols 5 --rows 7]
-//       [--square 0.03] [--margin 0.03] [--margin-reflectivity-ratio 1] [--dark-parity 1] [--bright-reflectivity 0.6]
-//       [--dark-reflectivity 0.04] [--background-distance 0] [--depth-offset 0]
+//       [--sensor-param NAME=VALUE ...] [--edges-before-refit] [--seed 1] [--repeat 1]
+//       [--fx --fy --cx --cy --width --height] [--cols 5 --rows 7] [--square 0.03]
+//       [--margin 0.03] [--margin-reflectivity-ratio 1] [--dark-parity 1]
+//       [--bright-reflectivity 0.6] [--dark-reflectivity 0.04] [--background-distance 0]
+//       [--depth-offset 0]
 //
 // POSES.csv: header `frame,rx,ry,rz,tx,ty,tz`, one row per board pose in the depth camera's
 // optical frame: OpenCV rvec (Rodrigues, rad) and tvec (m), p_cam = R(rvec) p_board + t. With
@@ -14,9 +16,9 @@
 // its squares' reflectivities (in [0, 1]; the sensor check gives each real frame's its fitted
 // amplitude), overriding --bright-reflectivity / --dark-reflectivity; a tenth column
 // `background_behind` [m] (> 0) puts a plane parallel to the board that far behind it (what the
-// sensor check finds behind the real board's edges), in place of the --background-distance wall. Board
-// frame: origin at the first inner corner, x along a row of `cols` corners, y along a column of
-// `rows` corners, z the board normal. `frame` names the output files.
+// sensor check finds behind the real board's edges), in place of the --background-distance
+// wall. Board frame: origin at the first inner corner, x along a row of `cols` corners, y along
+// a column of `rows` corners, z the board normal. `frame` names the output files.
 //
 // Board: (cols + 1) x (rows + 1) printed squares, one square beyond the inner corners on every
 // side, then a white margin. Square (i, j) = (floor(x / s), floor(y / s)) is dark when

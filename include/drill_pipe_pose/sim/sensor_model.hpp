@@ -204,8 +204,9 @@ void switchOffEffect(SensorEffects* effects, const std::string& name);
 
 /// Sets one numeric parameter of `effects` by its field name (lateral_noise_px,
 /// flying_probability, edge_invalid_probability, flying_weight_min, flying_weight_max,
-/// flying_jump, flying_amplitude_weighted (0 or 1)): for fitting the edge model and for benching a model against another. Throws
-/// InputError naming the valid names for an unknown one, or for a value out of its range.
+/// flying_jump, flying_amplitude_weighted (0 or 1)): for fitting the edge model and for benching
+/// a model against another. Throws InputError naming the valid names for an unknown one, or for
+/// a value out of its range.
 void setEffectParameter(SensorEffects* effects, const std::string& name, double value);
 
 /// Parses "NAME=VALUE" and applies it with setEffectParameter; InputError names the text.
@@ -229,6 +230,6 @@ double axialNoiseSigma(double z, double theta, double max_incidence_rad = 84.0 *
 /// Lateral noise standard deviation [px] at incidence angle theta [rad] (Fankhauser et al. 2015).
 /// `head_on_px` is the sigma at theta = 0 (SensorEffects::lateral_noise_px).
 double lateralNoiseSigmaPx(double theta, double max_incidence_rad = 84.0 * M_PI / 180.0,
-                           double head_on_px = 0.8);
+                           double head_on_px = SensorEffects{}.lateral_noise_px);
 
 }  // namespace drill_pipe_pose::sim
