@@ -421,12 +421,14 @@ def measure_recording(folder, res, board=None):
     return mr
 
 
-def real_report(res, margin, markdown=False):
-    """The edge procedure and the recording's edge tables, as printed by sensor_check."""
-    lines = [edge_procedure_text(), "Edges of the board (each cell: median over the bin's frames with a crossing; "
-             "mixed t: quartiles of every mixed pixel in the bin):",
-             format_edge_table(edge_bin_table(res["results"], res["temporal"]), markdown), "",
-             "Edges by incidence (medians): incidence deg, n, edge sd px, mixed share"]
+def real_report(res, margin, markdown=False, procedure=True):
+    """The edge procedure (with `procedure`) and the recording's edge tables, as printed by
+    sensor_check."""
+    lines = [edge_procedure_text()] if procedure else []
+    lines += ["Edges of the board (each cell: median over the bin's frames with a crossing; "
+              "mixed t: quartiles of every mixed pixel in the bin):",
+              format_edge_table(edge_bin_table(res["results"], res["temporal"]), markdown), "",
+              "Edges by incidence (medians): incidence deg, n, edge sd px, mixed share"]
     for (lo, hi), n, sd, sh in edge_incidence_table(res["results"]):
         lines.append(f"  {lo:4.0f}-{hi:<4.0f} {n:3d}  {sd:6.2f}  {sh:6.2f}")
     if margin[3]:
