@@ -176,7 +176,7 @@ class SensorCheckCommandLine(unittest.TestCase):
         p = self.run_tool("--help")
         self.assertEqual(p.returncode, 0)
         for opt in ("DATA_DIR", "--board", "--dark-parity", "--repeat-px", "--calib", "--markdown",
-                    "--frames-csv"):
+                    "--frames-csv", "--fit-edges", "--edges-before-refit", "--sensor-param"):
             self.assertIn(opt, p.stdout)
 
     def test_bad_options_exit_2(self):
