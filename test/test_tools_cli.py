@@ -60,7 +60,8 @@ OPTIONS = {
                      "--hd-mono", "--fps", "--detector-model", "--detector-param", "--true-boxes",
                      "--sensor-param"],
     "simulate_calibration": ["--rig", "--scene", "--profile", "--seed", "--out", "--true-rig",
-                             "--frames-per-placement", "--sensors", "--no-weak-return-model"],
+                             "--frames-per-placement", "--sensors", "--no-weak-return-model",
+                             "--sensor-param"],
 }
 
 

@@ -88,7 +88,7 @@ cal::ObservationSet capture(sim::RigSimulator& sim, const sim::CalibrationTarget
 int main(int argc, char** argv) {
   std::string rig = "config/rigs/thesis_lab.yaml", scene, out, true_rig;
   int frames = 1;
-  std::vector<std::string> effects_off;
+  std::vector<std::string> effects_off, sensor_params;
   cal::CaptureOptions capture_options;
   bool no_weak_return = false;
   sim::SimulatorOptions opt;
@@ -121,11 +121,15 @@ int main(int argc, char** argv) {
   tools::addEffectOffOption(app, "--effect-off", &effects_off,
                             "switch one of the profile's sensor effects off by name (repeatable), "
                             "to see what each costs the calibration");
+  tools::addSensorParamOption(app, "--sensor-param", &sensor_params,
+                              "set one numeric sensor parameter of the profile (repeatable), e.g. "
+                              "lateral_noise_px=0.8");
   tools::parseOrExit(app, argc, argv);
   try {
-    if (!effects_off.empty()) {
+    if (!effects_off.empty() || !sensor_params.empty()) {
       sim::SensorEffects fx = sim::sensorProfile(opt.profile);
       for (const std::string& e : effects_off) sim::switchOffEffect(&fx, e);
+      for (const std::string& p : sensor_params) sim::setEffectParameter(&fx, p);
       opt.effects = fx;
     }
     auto sim = sim::loadScenario(rig, scene, opt);
