@@ -283,55 +283,6 @@ TEST(SimRender, FlyingPixelsOnlyAtDepthEdges) {
   EXPECT_EQ(changed_off_edge, 0);
 }
 
-// A two-surface scene: the left half a bright board 1 m away, the right half a dark wall 1.2 m
-// away, head-on; only the edge effects on.
-TEST(SimRender, EdgePixelsAreInvalidOrMixedTowardsTheBrighterReturn) {
-  const int W = 40, H = 30;
-  std::vector<float> z(W * H), cosi(W * H, 1.0f), refl(W * H), g2(W * H, 0.0f);
-  for (int v = 0; v < H; ++v)
-    for (int u = 0; u < W; ++u) {
-      z[v * W + u] = u < W / 2 ? 1.0f : 1.2f;
-      refl[v * W + u] = u < W / 2 ? 0.8f : 0.1f;
-    }
-  DepthSceneView in;
-  in.width = W;
-  in.height = H;
-  in.z = z.data();
-  in.cos_incidence = cosi.data();
-  in.reflectivity = refl.data();
-  in.g2 = g2.data();
-  SensorEffects fx = sensorProfile("ideal");
-  fx.flying_pixels = true;
-  setEffectParameter(&fx, "edge_invalid_probability", 0.5);
-  setEffectParameter(&fx, "flying_probability", 0.5);
-  setEffectParameter(&fx, "flying_weight_min=0.1");
-  setEffectParameter(&fx, "flying_weight_max=0.5");
-  setEffectParameter(&fx, "flying_amplitude_weighted=1");
-  DepthImage out;
-  applyDepthEffects(fx, in, 0.0, 1.0, 11, 12, &out);
-  int invalid = 0, mixed = 0, off_edge = 0;
-  for (int v = 0; v < H; ++v)
-    for (int u = 0; u < W; ++u) {
-      const float d = out.depthAt(u, v);
-      const bool edge = u == W / 2 - 1 || u == W / 2;
-      if (!(d == d)) {
-        ++invalid;
-        off_edge += !edge;
-      } else if (std::abs(d - z[v * W + u]) > 1e-6f) {
-        ++mixed;
-        off_edge += !edge;
-        // The depth of a mixed pixel is the amplitude-weighted mean: nearer the bright board.
-        EXPECT_LT(d, 1.1f) << "pixel " << u << "," << v;
-        EXPECT_GT(d, 1.0f) << "pixel " << u << "," << v;
-      }
-    }
-  std::printf("[ edges    ] %d of %d edge pixels invalid, %d mixed\n", invalid, 2 * H, mixed);
-  EXPECT_EQ(off_edge, 0);
-  EXPECT_EQ(invalid + mixed, 2 * H);  // the two probabilities sum to 1: every edge pixel
-  EXPECT_GT(invalid, H / 2);          // about half of 2 H, seeds 11 and 12
-  EXPECT_LT(invalid, 3 * H / 2);
-}
-
 TEST(SimRender, SensorParametersSetByNameWithinTheirRange) {
   SensorEffects fx = sensorProfile("kinect_v2_calibrated");
   setEffectParameter(&fx, "lateral_noise_px=0.25");
@@ -756,6 +707,50 @@ struct FlatView {
     return v;
   }
 };
+
+// A two-surface scene: the left half a bright board 1 m away, the right half a dark wall 1.2 m
+// away, head-on; only the edge effects on.
+TEST(SimDepthEffects, EdgePixelsAreInvalidOrMixedTowardsTheBrighterReturn) {
+  const int W = 40, H = 30;
+  FlatView scene(W, H, 1.0f);
+  std::vector<float>& z = scene.z;
+  for (int v = 0; v < H; ++v)
+    for (int u = 0; u < W; ++u) {
+      z[v * W + u] = u < W / 2 ? 1.0f : 1.2f;
+      scene.reflectivity[v * W + u] = u < W / 2 ? 0.8f : 0.1f;
+    }
+  const DepthSceneView in = scene.view(W, H);
+  SensorEffects fx = sensorProfile("ideal");
+  fx.flying_pixels = true;
+  setEffectParameter(&fx, "edge_invalid_probability", 0.5);
+  setEffectParameter(&fx, "flying_probability", 0.5);
+  setEffectParameter(&fx, "flying_weight_min=0.1");
+  setEffectParameter(&fx, "flying_weight_max=0.5");
+  setEffectParameter(&fx, "flying_amplitude_weighted=1");
+  DepthImage out;
+  applyDepthEffects(fx, in, 0.0, 1.0, 11, 12, &out);
+  int invalid = 0, mixed = 0, off_edge = 0;
+  for (int v = 0; v < H; ++v)
+    for (int u = 0; u < W; ++u) {
+      const float d = out.depthAt(u, v);
+      const bool edge = u == W / 2 - 1 || u == W / 2;
+      if (!(d == d)) {
+        ++invalid;
+        off_edge += !edge;
+      } else if (std::abs(d - z[v * W + u]) > 1e-6f) {
+        ++mixed;
+        off_edge += !edge;
+        // The depth of a mixed pixel is the amplitude-weighted mean: nearer the bright board.
+        EXPECT_LT(d, 1.1f) << "pixel " << u << "," << v;
+        EXPECT_GT(d, 1.0f) << "pixel " << u << "," << v;
+      }
+    }
+  std::printf("[ edges    ] %d of %d edge pixels invalid, %d mixed\n", invalid, 2 * H, mixed);
+  EXPECT_EQ(off_edge, 0);
+  EXPECT_EQ(invalid + mixed, 2 * H);  // the two probabilities sum to 1: every edge pixel
+  EXPECT_GT(invalid, H / 2);          // about half of 2 H, seeds 11 and 12
+  EXPECT_LT(invalid, 3 * H / 2);
+}
 
 TEST(SimDepthEffects, IdealProfileWritesTheInputDepthPlusOffset) {
   const int w = 7, h = 5;

@@ -10,33 +10,38 @@
 
 namespace drill_pipe_pose::tools {
 
-/// A repeatable option naming sensor effects to switch off; a name sim::switchOffEffect does not
-/// know is refused at parse time with its message.
-inline CLI::Option* addEffectOffOption(CLI::App& app, const std::string& flag,
-                                       std::vector<std::string>* names, const std::string& doc) {
-  return app.add_option(flag, *names, doc)
+/// A repeatable option whose every value is checked at parse time by applying it to a default
+/// sim::SensorEffects with `apply` (which throws InputError with its message when it refuses).
+template <typename Apply>
+CLI::Option* addSensorEffectsOption(CLI::App& app, const std::string& flag,
+                                    std::vector<std::string>* values, const std::string& doc,
+                                    const std::string& metavar, Apply apply) {
+  return app.add_option(flag, *values, doc)
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
       ->expected(1)
-      ->option_text("EFFECT ...")
-      ->check(throwingCheck("EFFECT", [](const std::string& v) {
+      ->option_text(metavar + " ...")
+      ->check(throwingCheck(metavar, [apply](const std::string& v) {
         sim::SensorEffects fx;
-        sim::switchOffEffect(&fx, v);
+        apply(&fx, v);
       }));
 }
 
-/// A repeatable option setting one numeric sensor parameter, NAME=VALUE; an assignment
-/// sim::setEffectParameter refuses is refused at parse time with its message.
+/// A repeatable option naming sensor effects to switch off (sim::switchOffEffect).
+inline CLI::Option* addEffectOffOption(CLI::App& app, const std::string& flag,
+                                       std::vector<std::string>* names, const std::string& doc) {
+  return addSensorEffectsOption(
+      app, flag, names, doc, "EFFECT",
+      [](sim::SensorEffects* fx, const std::string& v) { sim::switchOffEffect(fx, v); });
+}
+
+/// A repeatable option setting one numeric sensor parameter, NAME=VALUE
+/// (sim::setEffectParameter).
 inline CLI::Option* addSensorParamOption(CLI::App& app, const std::string& flag,
                                          std::vector<std::string>* assignments,
                                          const std::string& doc) {
-  return app.add_option(flag, *assignments, doc)
-      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
-      ->expected(1)
-      ->option_text("NAME=VALUE ...")
-      ->check(throwingCheck("NAME=VALUE", [](const std::string& v) {
-        sim::SensorEffects fx;
-        sim::setEffectParameter(&fx, v);
-      }));
+  return addSensorEffectsOption(
+      app, flag, assignments, doc, "NAME=VALUE",
+      [](sim::SensorEffects* fx, const std::string& v) { sim::setEffectParameter(fx, v); });
 }
 
 }  // namespace drill_pipe_pose::tools
