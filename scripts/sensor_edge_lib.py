@@ -83,15 +83,20 @@ def _plane_residual(depth_mm, K, dist, corners, board):
     return R, t, E, rays, board_px, hull
 
 
+def _outline_of(u, v, board_px):
+    """The outline (u0, u1, v0, v1) [m] of the board pixels' board coordinates (step 2)."""
+    uu, vv = u[board_px], v[board_px]
+    return (float(np.percentile(uu, OUTLINE_PCT)), float(np.percentile(uu, 100 - OUTLINE_PCT)),
+            float(np.percentile(vv, OUTLINE_PCT)), float(np.percentile(vv, 100 - OUTLINE_PCT)))
+
+
 def board_outline(depth_mm, K, dist, corners, board=None):
     """The board's outline in board coordinates (u0, u1, v0, v1) [m] from its on-plane pixels."""
     board = board or lib.Board()
     corners = np.asarray(corners, np.float64).reshape(-1, 2)
     R, t, E, rays, board_px, _ = _plane_residual(depth_mm, K, dist, corners, board)
     u, v, _ = lib.board_coords(rays, R, t)
-    uu, vv = u[board_px], v[board_px]
-    return (float(np.percentile(uu, OUTLINE_PCT)), float(np.percentile(uu, 100 - OUTLINE_PCT)),
-            float(np.percentile(vv, OUTLINE_PCT)), float(np.percentile(vv, 100 - OUTLINE_PCT)))
+    return _outline_of(u, v, board_px)
 
 
 def crossings(outline, R, t, K, dist, shape, dist_m):
@@ -189,9 +194,7 @@ def measure_edges(depth_mm, K, dist, corners, board=None, outline=None):
     R, t, E, rays, board_px, _ = _plane_residual(depth_mm, K, dist, corners, board)
     if outline is None:
         u, v, _ = lib.board_coords(rays, R, t)
-        uu, vv = u[board_px], v[board_px]
-        outline = (np.percentile(uu, OUTLINE_PCT), np.percentile(uu, 100 - OUTLINE_PCT),
-                   np.percentile(vv, OUTLINE_PCT), np.percentile(vv, 100 - OUTLINE_PCT))
+        outline = _outline_of(u, v, board_px)
     centre = R @ board.centre() + t
     cr = crossings(outline, R, t, K, dist, depth_mm.shape, float(centre[2]))
     sides, edges, mixed_t, backs = {}, {}, [], []
@@ -287,8 +290,7 @@ def margin_reflectivity_ratio(frames, K, dist, board=None, dark_parity=1, clip_d
         corners = np.asarray(corners, np.float64).reshape(-1, 2)
         R, t, _, rays, board_px, hull = _plane_residual(depth, K, dist, corners, board)
         u, v, _ = lib.board_coords(rays, R, t)
-        u0, u1, v0, v1 = (np.percentile(u[board_px], OUTLINE_PCT), np.percentile(u[board_px], 100 - OUTLINE_PCT),
-                          np.percentile(v[board_px], OUTLINE_PCT), np.percentile(v[board_px], 100 - OUTLINE_PCT))
+        u0, u1, v0, v1 = _outline_of(u, v, board_px)
         inner = (u > u0 + g) & (u < u1 - g) & (v > v0 + g) & (v < v1 - g)
         squares = (u > -s - g) & (u < board.cols * s + g) & (v > -s - g) & (v < board.rows * s + g)
         si, sj, win = lib.square_index(u, v, board)
