@@ -268,6 +268,10 @@ EstimatorConfig testConfig() {
   EstimatorConfig c;
   c.work_zone.min = Eigen::Vector3d(-20, -20, 0.02);  // drops the ground
   c.work_zone.max = Eigen::Vector3d(20, 20, 6);
+  // These tests judge what one cycle's fits publish; holding a new track's first pose until the
+  // next fit agrees is the temporal filter's own (TemporalFilter tests,
+  // PoseEstimator.ANewTracksFirstPoseIsHeldUntilTheNextAgrees).
+  c.temporal.confirm_start = false;
   return c;
 }
 
@@ -1229,7 +1233,7 @@ TEST(TemporalFilter, SmoothsAStaticEndAndFollowsAMovingOneWithoutLag) {
   EXPECT_LT(err, 0.6 * raw) << "seed " << seed;
 }
 
-TEST(TemporalFilter, AWildFitIsHeldAndAJumpIsConfirmedByTheNextMeasurement) {
+TEST(TemporalFilter, AWildFitIsHeldAndAJumpOrANewTrackIsConfirmedByTheNextMeasurement) {
   const double sigma = 0.005, tilt_sigma = 0.02;
   Eigen::Matrix<double, 6, 6> C = Eigen::Matrix<double, 6, 6>::Zero();
   C.topLeftCorner<3, 3>() = Eigen::Matrix3d::Identity() * sigma * sigma;
@@ -1246,8 +1250,11 @@ TEST(TemporalFilter, AWildFitIsHeldAndAJumpIsConfirmedByTheNextMeasurement) {
   };
   auto settled = [&](const EstimatorConfig::Temporal& cfg) {
     EndPoseFilter f(cfg);
-    EXPECT_EQ(feed(f, 0, at, Eigen::Vector3d::UnitZ()), FilterUpdate::kRestarted);
-    for (int k = 1; k < 30; ++k)
+    int k = 0;
+    if (cfg.confirm_start && cfg.confirmations > 0)  // a new track's first pose: held
+      EXPECT_EQ(feed(f, k++, at, Eigen::Vector3d::UnitZ()), FilterUpdate::kStarting);
+    EXPECT_EQ(feed(f, k++, at, Eigen::Vector3d::UnitZ()), FilterUpdate::kRestarted);
+    for (; k < 30; ++k)
       EXPECT_EQ(feed(f, k, at, Eigen::Vector3d::UnitZ()), FilterUpdate::kFiltered) << k;
     return f;
   };
@@ -1280,8 +1287,25 @@ TEST(TemporalFilter, AWildFitIsHeldAndAJumpIsConfirmedByTheNextMeasurement) {
     EXPECT_NEAR(o.x(), 1.502, 1e-12);
     EXPECT_EQ(feed(f, 32, Eigen::Vector3d(1.5, 2, 3), Eigen::Vector3d::UnitZ()),
               FilterUpdate::kFiltered);
-    // Time going backwards (a looped bag) restarts it at once.
-    EXPECT_EQ(feed(f, 0, at, Eigen::Vector3d::UnitZ()), FilterUpdate::kRestarted);
+    // Time going backwards (a looped bag) starts a new track: held until the next agrees.
+    EXPECT_EQ(feed(f, 0, at, Eigen::Vector3d::UnitZ()), FilterUpdate::kStarting);
+    EXPECT_EQ(feed(f, 1, at, Eigen::Vector3d::UnitZ()), FilterUpdate::kRestarted);
+  }
+  {
+    // A new track whose first fit is wild (0.5 m off) and whose next disagrees with it: nothing
+    // is published until two consecutive fits agree; the filter starts from the second of them.
+    EndPoseFilter f(cfg);
+    Eigen::Vector3d o;
+    EXPECT_EQ(feed(f, 0, Eigen::Vector3d(1.5, 2, 3), tilted), FilterUpdate::kStarting);
+    EXPECT_EQ(feed(f, 1, at, Eigen::Vector3d::UnitZ()), FilterUpdate::kStarting);
+    EXPECT_EQ(feed(f, 2, at + Eigen::Vector3d(0.002, 0, 0), Eigen::Vector3d::UnitZ(), &o),
+              FilterUpdate::kRestarted);
+    EXPECT_NEAR(o.x(), at.x() + 0.002, 1e-12);
+    // With confirm_start off, the first fit is published at once (as before it existed).
+    EstimatorConfig::Temporal off = cfg;
+    off.confirm_start = false;
+    EndPoseFilter g(off);
+    EXPECT_EQ(feed(g, 0, at, Eigen::Vector3d::UnitZ()), FilterUpdate::kRestarted);
   }
   {
     // confirmations = 0: the jump restarts the filter at once.
@@ -1415,6 +1439,34 @@ TEST(PoseEstimator, CleanVerticalBoxAndPin) {
   scene.joints.push_back(makeJoint(EndLabel::kBoxEnd, poseAt({4.694, 5.3, 1.23}, {0, 0, 1})));
   scene.joints.push_back(makeJoint(EndLabel::kPinEnd, poseAt({4.694, 6.8, 1.327}, {0, 0, 1})));
   checkScene(scene, ring({5, 5, 1.0}, 5.5, 4.5), {}, 0.004, 0.3 * kDeg);
+}
+
+TEST(PoseEstimator, ANewTracksFirstPoseIsHeldUntilTheNextAgrees) {
+  // The default temporal filter (confirm_start): an end's first fit is not published alone; the
+  // next cycle's, agreeing with it, is. After a gap longer than temporal.max_gap the end is a
+  // new track again.
+  Scene scene;
+  scene.joints.push_back(makeJoint(EndLabel::kBoxEnd, poseAt({4.694, 5.3, 1.23}, {0, 0, 1})));
+  const auto inputs = renderAll(scene, ring({5, 5, 1.0}, 5.5, 4.5), {});
+  EstimatorConfig cfg = testConfig();
+  cfg.temporal.confirm_start = EstimatorConfig::Temporal().confirm_start;
+  ASSERT_TRUE(cfg.temporal.confirm_start);
+  PoseEstimator est(cfg);
+  auto at = [&](int64_t stamp_ns) {
+    auto in = inputs;
+    for (auto& i : in) i.frame.stamp_ns = stamp_ns;
+    return est.process(in).end(EndLabel::kBoxEnd);
+  };
+  const int64_t t0 = 1000000000LL, period = 33000000LL;
+  EndEstimate e = at(t0);
+  EXPECT_FALSE(e.valid);
+  EXPECT_NE(e.reason.find("a new track's first pose"), std::string::npos) << e.reason;
+  e = at(t0 + period);
+  EXPECT_TRUE(e.valid) << describe(e);
+  EXPECT_TRUE(at(t0 + 2 * period).valid);
+  const int64_t later = t0 + 2 * period + static_cast<int64_t>(2e9 * cfg.temporal.max_gap);
+  EXPECT_FALSE(at(later).valid) << "after a gap";
+  EXPECT_TRUE(at(later + period).valid);
 }
 
 TEST(PoseEstimator, CovarianceAddsTheRigCalibrationUncertainty) {

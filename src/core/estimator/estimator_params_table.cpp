@@ -289,6 +289,8 @@ ParamTable<C> uncertaintyRows() {
         "a measurement further from the prediction is held"),
       P("temporal/confirmations", temporal.confirmations, "", atLeast(0),
         "measurements that must agree with a held one before a restart; 0: at once"),
+      P("temporal/confirm_start", temporal.confirm_start, "", anyValue(),
+        "a new track's first pose is held likewise until the next agrees"),
       P("temporal/max_gap", temporal.max_gap, "s", positive(),
         "a longer gap between measurements restarts the filter"),
   };

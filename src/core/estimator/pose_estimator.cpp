@@ -329,15 +329,19 @@ std::string noPoseReason(int slot, const std::array<Candidate, kNumEnds>& cand, 
 bool filterEnd(EndPoseFilter* filter, int64_t stamp_ns, const EstimatorConfig::Temporal& tc,
                EndEstimate* e) {
   Eigen::Vector3d o = e->T_world_end.translation(), z = e->T_world_end.linear().col(2);
-  if (filter->update(stamp_ns, &o, &z, &e->covariance) == FilterUpdate::kHeld) {
-    // One fit far from the end's filtered track: a wild fit, or the pipe moved. Not published
-    // until the next agrees (temporal.confirmations).
+  const FilterUpdate update = filter->update(stamp_ns, &o, &z, &e->covariance);
+  if (update == FilterUpdate::kHeld || update == FilterUpdate::kStarting) {
+    // One fit far from the end's filtered track (a wild fit, or the pipe moved), or a new
+    // track's first: not published until the next agrees (temporal.confirmations).
     std::ostringstream s;
     s.precision(3);
-    s << "held: this cycle's pose lies " << filter->lastPositionSigma() << " sigma and "
-      << filter->lastTilt() * 180 / M_PI << " deg (gate " << filter->lastTiltGate() * 180 / M_PI
-      << ") from the end's filtered track (temporal.gate_sigma = " << tc.gate_sigma
-      << "); published when temporal.confirmations = " << tc.confirmations << " more agree";
+    if (update == FilterUpdate::kStarting)
+      s << "held: a new track's first pose (temporal.confirm_start)";
+    else
+      s << "held: this cycle's pose lies " << filter->lastPositionSigma() << " sigma and "
+        << filter->lastTilt() * 180 / M_PI << " deg (gate " << filter->lastTiltGate() * 180 / M_PI
+        << ") from the end's filtered track (temporal.gate_sigma = " << tc.gate_sigma << ")";
+    s << "; published when temporal.confirmations = " << tc.confirmations << " more agree";
     const EndLabel label = e->label;
     *e = EndEstimate();
     e->label = label;

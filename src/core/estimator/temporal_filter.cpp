@@ -14,6 +14,35 @@ double tiltVariance(const Eigen::Matrix3d& rot_cov, const Eigen::Vector3d& axis)
 }
 }  // namespace
 
+template <typename Restart>
+FilterUpdate EndPoseFilter::holdBack(int64_t stamp_ns, const Eigen::Vector3d& origin,
+                                     const Eigen::Vector3d& axis, const Eigen::Matrix3d& R_pos,
+                                     double r_tilt, FilterUpdate kind, const Restart& restart) {
+  // Held until `confirmations` more measurements agree with the held one (within the gate of
+  // both covariances, the position allowed max_speed of motion in between); then the filter
+  // restarts from the last.
+  const Eigen::Vector3d meas_axis = axis.normalized();
+  bool agrees = false;
+  const double dt_held = (stamp_ns - held_stamp_ns_) * 1e-9;
+  if (held_ > 0 && dt_held > 0.0 && dt_held <= config_.max_gap) {
+    const Eigen::Vector3d dp = origin - held_origin_;
+    const double motion = config_.max_speed * dt_held;
+    const Eigen::Matrix3d Sh = held_pos_cov_ + R_pos + motion * motion * Eigen::Matrix3d::Identity();
+    const double dh2 = dp.dot(Sh.ldlt().solve(dp));
+    const double th = std::acos(std::clamp(meas_axis.dot(held_axis_), -1.0, 1.0));
+    agrees = dh2 <= config_.gate_sigma * config_.gate_sigma &&
+             th <= config_.gate_sigma * std::sqrt(held_tilt_var_ + r_tilt);
+  }
+  held_ = agrees ? held_ + 1 : 1;
+  if (held_ > config_.confirmations) return restart();
+  held_stamp_ns_ = stamp_ns;
+  held_origin_ = origin;
+  held_axis_ = meas_axis;
+  held_pos_cov_ = R_pos;
+  held_tilt_var_ = r_tilt;
+  return kind;
+}
+
 FilterUpdate EndPoseFilter::update(int64_t stamp_ns, Eigen::Vector3d* origin,
                                    Eigen::Vector3d* axis, Eigen::Matrix<double, 6, 6>* covariance) {
   const Eigen::Matrix3d R_pos = covariance->topLeftCorner<3, 3>();
@@ -33,7 +62,15 @@ FilterUpdate EndPoseFilter::update(int64_t stamp_ns, Eigen::Vector3d* origin,
     held_ = 0;
     return FilterUpdate::kRestarted;
   };
-  if (!initialised_ || dt <= 0.0 || dt > config_.max_gap) return restart();
+  if (!initialised_ || dt <= 0.0 || dt > config_.max_gap) {
+    // A new track (the first measurement, or one after a gap or a step back in time): like a
+    // jump, its first pose is held until the next agrees (confirm_start), so that one wild fit
+    // of a hard view (a dark joint, a clutter of ends) is never published alone.
+    if (!config_.confirm_start || config_.confirmations <= 0) return restart();
+    initialised_ = false;
+    last_sigma_ = last_tilt_ = last_tilt_gate_ = 0;
+    return holdBack(stamp_ns, *origin, *axis, R_pos, r_tilt, FilterUpdate::kStarting, restart);
+  }
 
   // Predict (constant velocity, white acceleration of spectral density q).
   Eigen::Matrix<double, 6, 6> F = Eigen::Matrix<double, 6, 6>::Identity();
@@ -61,29 +98,8 @@ FilterUpdate EndPoseFilter::update(int64_t stamp_ns, Eigen::Vector3d* origin,
   last_tilt_gate_ = tilt_gate;
   if (!(d2 <= config_.gate_sigma * config_.gate_sigma) || tilt > tilt_gate) {
     if (config_.confirmations <= 0) return restart();
-    // Outside the gate: a wild fit, or the pipe moved. Held until `confirmations` more
-    // measurements agree with the held one (within the gate of both covariances, the position
-    // allowed max_speed of motion in between); then the filter restarts from the last.
-    bool agrees = false;
-    const double dt_held = (stamp_ns - held_stamp_ns_) * 1e-9;
-    if (held_ > 0 && dt_held > 0.0 && dt_held <= config_.max_gap) {
-      const Eigen::Vector3d dp = *origin - held_origin_;
-      const double motion = config_.max_speed * dt_held;
-      const Eigen::Matrix3d Sh =
-          held_pos_cov_ + R_pos + motion * motion * Eigen::Matrix3d::Identity();
-      const double dh2 = dp.dot(Sh.ldlt().solve(dp));
-      const double th = std::acos(std::clamp(meas_axis.dot(held_axis_), -1.0, 1.0));
-      agrees = dh2 <= config_.gate_sigma * config_.gate_sigma &&
-               th <= config_.gate_sigma * std::sqrt(held_tilt_var_ + r_tilt);
-    }
-    held_ = agrees ? held_ + 1 : 1;
-    if (held_ > config_.confirmations) return restart();
-    held_stamp_ns_ = stamp_ns;
-    held_origin_ = *origin;
-    held_axis_ = meas_axis;
-    held_pos_cov_ = R_pos;
-    held_tilt_var_ = r_tilt;
-    return FilterUpdate::kHeld;
+    // Outside the gate: a wild fit, or the pipe moved.
+    return holdBack(stamp_ns, *origin, *axis, R_pos, r_tilt, FilterUpdate::kHeld, restart);
   }
   held_ = 0;
 

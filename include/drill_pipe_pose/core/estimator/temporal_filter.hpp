@@ -4,8 +4,8 @@
 // and a random-walk filter on the axis direction, both weighted by the per-cycle covariance.
 // A measurement far outside the prediction is held back until `confirmations` more measurements
 // agree with it (a real move: the filter restarts from the last of them) - a single wild fit is
-// not published, and a true jump costs that many cycles. A gap or a time step backwards restarts
-// the filter. Only valid measurements enter; an end without a measurement stays invalid (the
+// not published, and a true jump costs that many cycles. A new track (the first measurement, a
+// gap or a time step backwards) is held the same way (temporal.confirm_start). Only valid measurements enter; an end without a measurement stays invalid (the
 // filter never invents a pose).
 
 #include <Eigen/Geometry>
@@ -20,6 +20,7 @@ enum class FilterUpdate {
   kFiltered,   ///< combined with the history
   kRestarted,  ///< the filter (re)started from it (first, after a gap, or a confirmed jump)
   kHeld,       ///< outside the gate, waiting for confirmation: not to be published
+  kStarting,   ///< a new track's pose, waiting for confirmation (confirm_start): not published
 };
 
 class EndPoseFilter {
@@ -60,6 +61,12 @@ class EndPoseFilter {
   Eigen::Matrix3d held_pos_cov_ = Eigen::Matrix3d::Zero();
   double held_tilt_var_ = 0;
   double last_sigma_ = 0, last_tilt_ = 0, last_tilt_gate_ = 0;
+  /// Holds a measurement back (returns `kind`) until `confirmations` more agree with it; then
+  /// returns restart() (the filter restarted from the last).
+  template <typename Restart>
+  FilterUpdate holdBack(int64_t stamp_ns, const Eigen::Vector3d& origin,
+                        const Eigen::Vector3d& axis, const Eigen::Matrix3d& R_pos, double r_tilt,
+                        FilterUpdate kind, const Restart& restart);
 };
 
 }  // namespace drill_pipe_pose
