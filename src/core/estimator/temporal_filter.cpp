@@ -27,7 +27,8 @@ FilterUpdate EndPoseFilter::holdBack(int64_t stamp_ns, const Eigen::Vector3d& or
   if (held_ > 0 && dt_held > 0.0 && dt_held <= config_.max_gap) {
     const Eigen::Vector3d dp = origin - held_origin_;
     const double motion = config_.max_speed * dt_held;
-    const Eigen::Matrix3d Sh = held_pos_cov_ + R_pos + motion * motion * Eigen::Matrix3d::Identity();
+    const Eigen::Matrix3d Sh =
+        held_pos_cov_ + R_pos + motion * motion * Eigen::Matrix3d::Identity();
     const double dh2 = dp.dot(Sh.ldlt().solve(dp));
     const double th = std::acos(std::clamp(meas_axis.dot(held_axis_), -1.0, 1.0));
     agrees = dh2 <= config_.gate_sigma * config_.gate_sigma &&

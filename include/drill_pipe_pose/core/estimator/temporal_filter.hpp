@@ -5,8 +5,9 @@
 // A measurement far outside the prediction is held back until `confirmations` more measurements
 // agree with it (a real move: the filter restarts from the last of them) - a single wild fit is
 // not published, and a true jump costs that many cycles. A new track (the first measurement, a
-// gap or a time step backwards) is held the same way (temporal.confirm_start). Only valid measurements enter; an end without a measurement stays invalid (the
-// filter never invents a pose).
+// gap or a time step backwards) is held the same way (temporal.confirm_start). Only valid
+// measurements enter; an end without a measurement stays invalid (the filter never invents a
+// pose).
 
 #include <Eigen/Geometry>
 #include <cstdint>
