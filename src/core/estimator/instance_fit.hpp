@@ -53,6 +53,9 @@ class InstanceFitter {
   /// The winner's fine position along the axis, then the 5-DoF refinement with projective
   /// correspondences (free and locked along the axis; the better is polished on every point).
   bool refineWinner(int win);
+  /// With the position along the axis from the scan: the fit's axial variance replaced by the
+  /// scan's (from cd_.axial_contrast), uncorrelated with the other parameters.
+  void scanAxialCovariance(ProfileFitResult* fit) const;
   /// The acceptance gates: direction margin, residual and inliers, axial contrast, reported
   /// uncertainty. Sets cd_.ok, or cd_.reason.
   void gate();
