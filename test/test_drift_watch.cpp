@@ -107,6 +107,25 @@ TEST(DriftWatch, FlagsWithTheTimeConstantAndReleasesWithHysteresis) {
   EXPECT_FALSE(r.status()[0].measured);
 }
 
+TEST(DriftWatch, OneWildSampleMovesTheShiftByAtMostTwiceItsLimitsShare) {
+  EstimatorConfig::Drift c;  // tau 1 s, 1 cm, 0.3 deg
+  DriftWatch w(c);
+  EXPECT_LT(feed(&w, Eigen::Vector3d::Zero(), 0.0, 2.0, true), 0.0);
+  // One cycle 7 cm along the ray and 2 deg sideways (a sample off by the gate's reach), then
+  // agreement again: a plain running mean would jump 7 cm x a = 4.5 mm and 0.13 deg; the step is
+  // clipped to 2 limits (2 cm, 0.6 deg) x a.
+  const double a = 1.0 - std::exp(-1.0 / 30);
+  feed(&w, Eigen::Vector3d(0.07, 6.5 * 2.0 * kDeg, 0), 2.0, 2.0 + 0.5 / 30, true);
+  ASSERT_EQ(w.status().size(), 1u);
+  EXPECT_NEAR(w.status()[0].ray_shift, 0.02 * a, 1e-4);
+  EXPECT_NEAR(w.status()[0].rotation, 0.6 * a, 0.005);
+  EXPECT_FALSE(w.flagged("cam1"));
+  EXPECT_LT(feed(&w, Eigen::Vector3d::Zero(), 2.0 + 1.0 / 30, 3.0, true), 0.0);
+  // A lasting 2 cm bump passes whole: flagged after ln 2 s, as without the clip.
+  const double flagged = feed(&w, Eigen::Vector3d(0.02, 0, 0), 3.0, 5.0, true) - 3.0;
+  EXPECT_NEAR(flagged, std::log(2.0), 0.1);
+}
+
 TEST(DriftWatch, LearnsEachCamerasOwnDisagreementAsItsBaseline) {
   EstimatorConfig::Drift c;  // learns 1 s; absolute limit 3 x (1 cm, 0.3 deg)
   // A camera whose view disagrees by 1.5 cm from the start (a bias of its view, not a bump):

@@ -306,10 +306,11 @@ struct EstimatorConfig {
     double amplitude_scale = 40260.0;
     /// Use the frames' amplitude: each pixel's weak-return bias taken out of its depth (the
     /// Kinect v2's, fitted on the real sensor; docs/measurement_model.md). false: the amplitude
-    /// is ignored. Off by default for now: the pipe-type rules (typing/*, the radius searches'
-    /// withholding) were tuned on depth with the bias left in, and one of their regression
-    /// tests fails with it on (docs/measurement_model.md).
-    bool amplitude_model = false;
+    /// is ignored. On by default: on rigs whose cameras see the joints at other ranges than the
+    /// depth calibration's, the bias is the largest error (design seeds 400-402, held out
+    /// 410-412: catwalk_horizontal's pin end, close_single, four_high; docs/results.md). Frames
+    /// without amplitude are used as before.
+    bool amplitude_model = true;
   } noise;
 
   /// Covariance = Hessian^-1 * reduced chi^2 * inflation, plus per-axis floors (end frame).
