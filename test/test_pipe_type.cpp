@@ -278,3 +278,30 @@ TEST(PipeType, TheJointOdFromTheSearchesTheTypeWithinItFromTheEvidence) {
   // Mismatched sizes: the searches' probabilities as they are.
   EXPECT_EQ(splitByJointOd(by_od, {1.0}, kTypes), by_od);
 }
+
+TEST(PipeTally, CloseTypesAreThePairsTheSensorCannotTellApart) {
+  // 3.2 mm apart on one tube: close. 6.35 mm apart: told apart. The same joint on tubes 12.7 mm
+  // apart: told apart by the tube. 3.2 mm apart on tubes 5 mm apart: close.
+  const std::vector<PipeCandidate> tally{
+      type("4.5_NC46_6.25", 0.15875, 0.1143), type("4.5_NC50_6.375", 0.161925, 0.1143),
+      type("5_NC50", 0.168275, 0.1270), type("4.5_NC50_6.625", 0.168275, 0.1143),
+      type("x_6.75", 0.17145, 0.1320)};
+  const std::vector<CloseTypes> close = closeTypes(tally);
+  ASSERT_EQ(close.size(), 2u);
+  EXPECT_EQ(close[0].a, "4.5_NC46_6.25");
+  EXPECT_EQ(close[0].b, "4.5_NC50_6.375");
+  EXPECT_NEAR(close[0].joint_od_gap, 0.003175, 1e-9);
+  EXPECT_EQ(close[1].a, "5_NC50");
+  EXPECT_EQ(close[1].b, "x_6.75");
+  EXPECT_NEAR(close[1].tube_od_gap, 0.005, 1e-9);
+  // The warning names each pair, or with [all] says how to set the tally.
+  const std::string named = tallyWarning(tally, false);
+  EXPECT_NE(named.find("4.5_NC46_6.25 and 4.5_NC50_6.375"), std::string::npos) << named;
+  EXPECT_NE(named.find("5_NC50 and x_6.75"), std::string::npos) << named;
+  const std::string all = tallyWarning(tally, true);
+  EXPECT_NE(all.find("2 pair(s)"), std::string::npos) << all;
+  EXPECT_NE(all.find("Set pipe_types to the rig's tally"), std::string::npos) << all;
+  // A tally the sensor can tell apart: no warning.
+  EXPECT_EQ(tallyWarning({tally[1], tally[2]}, false), "");
+  EXPECT_EQ(tallyWarning({tally[2]}, true), "");
+}

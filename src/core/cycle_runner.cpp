@@ -50,6 +50,12 @@ CycleRunner::CycleRunner(const EstimatorNodeConfig& config, TransformSource* tra
   }
 }
 
+std::string CycleRunner::tallyWarning() const {
+  const std::vector<std::string>& names = config_.estimator.pipe_types;
+  return drill_pipe_pose::tallyWarning(estimator_.config().candidates,
+                                       names.size() == 1 && names[0] == "all");
+}
+
 void CycleRunner::reset() {
   sync_.reset();
   sync_.takeDropped();  // every pending frame: the store is cleared below

@@ -83,6 +83,8 @@ class PoseEstimatorNode {
         cfg_.sync.window * 1e3, cfg_.sync.max_wait * 1e3,
         cfg_.sync.camera_timeout, cfg_.max_pose_age);
     ROS_INFO("pose_estimator: %s", describeEstimatorConfig(cfg_.estimator).c_str());
+    const std::string tally = runner_.tallyWarning();
+    if (!tally.empty()) ROS_WARN("pose_estimator: %s", tally.c_str());
     logDepthCorrections();
   }
 

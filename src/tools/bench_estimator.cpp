@@ -494,6 +494,8 @@ int main(int argc, char** argv) {
     for (const auto& cam : runner.camerasWithoutDepthCorrection())
       std::cerr << "bench_estimator: camera " << cam << " is not in the rig file '" << cfg.rig
                 << "': its depth is not corrected\n";
+    const std::string types_warning = runner.tallyWarning();
+    if (!types_warning.empty()) std::cerr << "bench_estimator: " << types_warning << "\n";
     Tally t;
     if (!opt.cycles_csv_path.empty()) {
       t.cycles_csv.open(opt.cycles_csv_path);

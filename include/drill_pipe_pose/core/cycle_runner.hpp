@@ -91,6 +91,9 @@ class CycleRunner {
   const std::map<std::string, DepthCorrection>& depthCorrections() const {
     return depth_corrections_;
   }
+  /// The start-up warning about the allowed pipe types (tallyWarning, pipe_type.hpp): "" when
+  /// the sensor can tell every pair apart. For the caller to warn about, once.
+  std::string tallyWarning() const;
   /// The cameras of config().cameras that config().rig (when set) does not list: their depth is
   /// read uncorrected. For the caller to warn about, once.
   const std::vector<std::string>& camerasWithoutDepthCorrection() const {

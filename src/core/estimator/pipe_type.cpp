@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <sstream>
 
 #include "drill_pipe_pose/core/metrics.hpp"
 
@@ -199,6 +200,44 @@ std::vector<double> splitByJointOd(const std::vector<double>& by_od,
     out[k] = in > 0 ? od * within[k] / in : od / static_cast<double>(members);
   }
   return out;
+}
+
+std::vector<CloseTypes> closeTypes(const std::vector<PipeCandidate>& candidates) {
+  std::vector<CloseTypes> out;
+  for (size_t i = 0; i < candidates.size(); ++i)
+    for (size_t j = i + 1; j < candidates.size(); ++j) {
+      const ToolJointDimensions &a = candidates[i].dims, &b = candidates[j].dims;
+      const double od = std::abs(a.tool_joint_od - b.tool_joint_od);
+      const double tube = std::abs(a.tube_od - b.tube_od);
+      if (od < kDistinguishableJointOd && tube < kDistinguishableTubeOd)
+        out.push_back({candidates[i].name, candidates[j].name, od, tube});
+    }
+  return out;
+}
+
+std::string tallyWarning(const std::vector<PipeCandidate>& candidates, bool every_entry) {
+  const std::vector<CloseTypes> close = closeTypes(candidates);
+  if (close.empty()) return "";
+  std::ostringstream s;
+  s.precision(3);
+  if (every_entry) {
+    s << "pipe_types is [all]: " << close.size() << " pair(s) of the catalogue's types are closer "
+      << "than the sensor can tell apart (tool-joint OD within "
+      << kDistinguishableJointOd * 1e3 << " mm and tube within " << kDistinguishableTubeOd * 1e3
+      << " mm, e.g. " << close[0].a << " and " << close[0].b << "): an end of one may be "
+      << "published as the other, with an ambiguous type. Set pipe_types to the rig's tally, "
+      << "the types of the strings in use.";
+    return s.str();
+  }
+  s << "pipe_types: the sensor cannot tell these types apart (tool-joint OD within "
+    << kDistinguishableJointOd * 1e3 << " mm and tube within " << kDistinguishableTubeOd * 1e3
+    << " mm):";
+  for (const CloseTypes& c : close)
+    s << " " << c.a << " and " << c.b << " (OD " << c.joint_od_gap * 1e3 << " mm apart, tube "
+      << c.tube_od_gap * 1e3 << " mm);";
+  s << " an end of one may be published as the other, with an ambiguous type. Leave out of "
+    << "pipe_types the types the rig does not run.";
+  return s.str();
 }
 
 int topType(const std::vector<double>& probabilities) {

@@ -166,4 +166,27 @@ std::vector<double> splitByJointOd(const std::vector<double>& by_od,
 /// The index of the largest probability (the first of equals); -1 when empty.
 int topType(const std::vector<double>& probabilities);
 
+/// [m] Two types whose tool-joint ODs differ by less than this, and whose tubes by less than
+/// kDistinguishableTubeOd, are a pair the sensor cannot tell apart: the joint OD it measures is
+/// good to about +-1-2 mm per scene (docs/pipe_types.md), and wear only takes a joint down, by up
+/// to about 3 mm; so 6 mm between two new types is a clear call and 3 mm is not.
+constexpr double kDistinguishableJointOd = 0.006;
+/// [m] ...a tube that much thinner or thicker tells them apart where enough of it is in view.
+constexpr double kDistinguishableTubeOd = 0.010;
+
+/// Two allowed types the sensor cannot tell apart (kDistinguishable*).
+struct CloseTypes {
+  std::string a, b;
+  double joint_od_gap = 0.0;  ///< [m] |OD a - OD b|
+  double tube_od_gap = 0.0;   ///< [m] |tube a - tube b|
+};
+
+/// Every pair of `candidates` the sensor cannot tell apart, in the candidates' order.
+std::vector<CloseTypes> closeTypes(const std::vector<PipeCandidate>& candidates);
+
+/// The start-up warning about the tally: "" when the sensor can tell every pair of `candidates`
+/// apart. With `every_entry` (pipe_types: [all]) it says how to set the tally rather than
+/// listing the pairs; else it names each pair.
+std::string tallyWarning(const std::vector<PipeCandidate>& candidates, bool every_entry);
+
 }  // namespace drill_pipe_pose
