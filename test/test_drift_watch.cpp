@@ -81,8 +81,17 @@ double feed(DriftWatch* w, const Eigen::Vector3d& shift, double t0, double t1, b
   return when;
 }
 
+/// The drift watch's defaults with a baseline learned in 1 s and then kept (the mechanics below
+/// are worked out for those).
+EstimatorConfig::Drift learnedInOneSecond() {
+  EstimatorConfig::Drift c;
+  c.learn_time = 1.0;
+  c.baseline_time_constant = 0.0;
+  return c;
+}
+
 TEST(DriftWatch, FlagsWithTheTimeConstantAndReleasesWithHysteresis) {
-  EstimatorConfig::Drift c;  // tau 1 s, 1 cm, 0.3 deg, release at half
+  const EstimatorConfig::Drift c = learnedInOneSecond();  // tau 1 s, 1 cm, 0.3 deg, release at half
   DriftWatch w(c);
   EXPECT_LT(feed(&w, Eigen::Vector3d::Zero(), 1.0, 2.0, true), 0.0);
   // 2 cm along the ray: 0.02 (1 - exp(-t)) passes 0.01 at t = ln 2.
@@ -108,7 +117,7 @@ TEST(DriftWatch, FlagsWithTheTimeConstantAndReleasesWithHysteresis) {
 }
 
 TEST(DriftWatch, OneWildSampleMovesTheShiftByAtMostTwiceItsLimitsShare) {
-  EstimatorConfig::Drift c;  // tau 1 s, 1 cm, 0.3 deg
+  const EstimatorConfig::Drift c = learnedInOneSecond();  // tau 1 s, 1 cm, 0.3 deg
   DriftWatch w(c);
   EXPECT_LT(feed(&w, Eigen::Vector3d::Zero(), 0.0, 2.0, true), 0.0);
   // One cycle 7 cm along the ray and 2 deg sideways (a sample off by the gate's reach), then
@@ -126,8 +135,26 @@ TEST(DriftWatch, OneWildSampleMovesTheShiftByAtMostTwiceItsLimitsShare) {
   EXPECT_NEAR(flagged, std::log(2.0), 0.1);
 }
 
+TEST(DriftWatch, TheBaselineFollowsASlowChangeButNotABump) {
+  EstimatorConfig::Drift c;  // learns 2 s, then follows with 30 s; tau 1 s, 1 cm
+  ASSERT_DOUBLE_EQ(c.learn_time, 2.0);
+  ASSERT_DOUBLE_EQ(c.baseline_time_constant, 30.0);
+  DriftWatch w(c);
+  EXPECT_LT(feed(&w, Eigen::Vector3d::Zero(), 0.0, 2.5, true), 0.0);
+  // 8 mm along the ray from 2.5 s on, for 60 s: never flagged (the running shift reaches at most
+  // about 8 mm x (1 - 1/30)), and the baseline takes it in: 8 (1 - exp(-2)) mm, the shift what
+  // is left of it.
+  EXPECT_LT(feed(&w, Eigen::Vector3d(0.008, 0, 0), 2.5, 62.5, true), 0.0);
+  EXPECT_NEAR(w.status()[0].baseline_ray, 0.008 * (1 - std::exp(-2.0)), 0.0005);
+  EXPECT_NEAR(w.status()[0].ray_shift, 0.008 * std::exp(-2.0), 0.0005);
+  // A 2 cm bump on top is still flagged, after about ln 2 s (the baseline is frozen once it is).
+  const double flagged = feed(&w, Eigen::Vector3d(0.028, 0, 0), 62.5, 66.5, true) - 62.5;
+  EXPECT_GT(flagged, 0.0);
+  EXPECT_LT(flagged, 1.0);
+}
+
 TEST(DriftWatch, LearnsEachCamerasOwnDisagreementAsItsBaseline) {
-  EstimatorConfig::Drift c;  // learns 1 s; absolute limit 3 x (1 cm, 0.3 deg)
+  const EstimatorConfig::Drift c = learnedInOneSecond();  // absolute limit 3 x (1 cm, 0.3 deg)
   // A camera whose view disagrees by 1.5 cm from the start (a bias of its view, not a bump):
   // learned, never flagged; its change from there is what counts.
   DriftWatch w(c);
@@ -184,8 +211,8 @@ TEST(DriftWatch, AnEndThatComesIntoViewLaterIsLearnedThenNotFlagged) {
 // -- on the simulator
 
 constexpr uint32_t kSeed = 61;
-constexpr double kBumpTime = 3.0;  ///< [s]
-constexpr double kStart = 1.5, kEnd = 7.0;  ///< [s] simulated run (cycles at 15 Hz)
+constexpr double kBumpTime = 4.0;  ///< [s] after the drift watch's 2 s of learning
+constexpr double kStart = 1.5, kEnd = 8.0;  ///< [s] simulated run (cycles at 15 Hz)
 
 struct BumpRun {
   std::map<std::string, double> first_flag;  ///< camera -> capture time [s] of its first flag
@@ -290,11 +317,11 @@ TEST(DriftWatchSim, UndisturbedAngledAndCatwalkRunsRaiseNoFlag) {
 }
 
 TEST(DriftWatchSim, CameraMoved2cmIsFlaggedAndLeftOut) {
-  expectFlaggedAndRecovered(runBump({sim::parseCameraBump("cam2:3:0,0,0.02")}), "cam2");
+  expectFlaggedAndRecovered(runBump({sim::parseCameraBump("cam2:4:0,0,0.02")}), "cam2");
 }
 
 TEST(DriftWatchSim, CameraTurnedHalfADegreeIsFlaggedAndLeftOut) {
-  expectFlaggedAndRecovered(runBump({sim::parseCameraBump("cam2:3:0,0,0:0,0.5,0")}), "cam2");
+  expectFlaggedAndRecovered(runBump({sim::parseCameraBump("cam2:4:0,0,0:0,0.5,0")}), "cam2");
 }
 
 TEST(DriftWatchSim, BumpParsing) {

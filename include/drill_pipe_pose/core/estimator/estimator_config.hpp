@@ -399,11 +399,18 @@ struct EstimatorConfig {
     /// camera's points disagree with the fused fit by up to 14 mm along the ray and 0.3 deg
     /// (thesis_angled, catwalk_horizontal, kinect_v2_calibrated, seed 81, even with the true
     /// rig: the sensor's depth bias differs between the cameras' views), as much as a bump.
-    double learn_time = 1.0;
+    /// 2 s: a baseline learned in 1 s was off its camera's long-run disagreement by up to 5 mm
+    /// (the first second's fits are settling), which the noise then pushed past max_ray_shift
+    /// (seed 81, 40 s, thesis_angled and catwalk_horizontal with the amplitude model: largest
+    /// running shift 9.2 and 9.0 mm with 1 s, 7.0 and 6.0 with 2 s, 5.5 and 7.0 with 3 s; 3 s
+    /// would leave a camera bumped in its first 3 s to the absolute limit alone).
+    double learn_time = 2.0;
     /// [s] after learning, the baseline follows the camera's disagreement with this capture-time
     /// constant while it is not flagged (a pipe that moves changes each view's bias slowly);
-    /// frozen while flagged. 0: never after learning.
-    double baseline_time_constant = 0.0;
+    /// frozen while flagged. 0: never after learning. 30 s: what a baseline learned a little off
+    /// keeps of its error fades (seed 81 as above, with learn_time 2: 7.0 and 6.0 -> 6.1 and
+    /// 5.6 mm), while a bump's 2 s to its flag moves the baseline by under 7 % of the bump.
+    double baseline_time_constant = 30.0;
     /// A camera whose running disagreement itself (not its change) exceeds this many times
     /// max_ray_shift or max_rotation is flagged too: a camera bumped before the watch learned
     /// (3: 30 mm, 0.9 deg; undisturbed, cluttered's cam4 reads 20 mm, seed 1, and the seed-81
