@@ -688,7 +688,7 @@ TEST(EstimatorSim, AHangingPinsPositionFromTheScanReportsTheScansUncertainty) {
   // stabbing: the pin end hangs below the box, seen from above, so often no point constrains
   // its position along the axis (only the tong's cylinder): the position is the free-space
   // scan's. Its reported uncertainty along the axis is the scan's, not the fit's unconstrained
-  // one (tens of millimetres to 1e10 m before): small, and still covering the actual error.
+  // one (tens of millimetres to 6e4 m before): small, and still covering the actual error.
   // The extrinsics are exact in the simulator, so no calibration share is configured.
   const uint32_t seed = 31;
   auto simulator = makeSimulator("stabbing", seed, "kinect_v2_calibrated", false, "", true);

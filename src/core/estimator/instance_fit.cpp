@@ -350,15 +350,15 @@ bool InstanceFitter::refineWinner(int win) {
 }
 
 void InstanceFitter::scanAxialCovariance(ProfileFitResult* f) const {
-  // The fit's covariance along the axis is the inverse of almost no information (metres, or
-  // 1e7 m where the information is exactly zero): replace it by the scan's own precision, reading
+  // The fit's covariance along the axis is the inverse of almost no information (centimetres to
+  // 6e4 m where the information is exactly zero): replace it by the scan's own precision, reading
   // its score as a chi-square in the position: a rise c at +-1 cm is sigma = 1 cm / sqrt(c). A
   // flat or falling score (c <= 0.25, which the gate still lets through down to
   // free_space.min_axial_contrast) counts as 2 cm. The published covariance multiplies the
   // fit's by covariance.inflation, which this sigma does not need (it is read off the score, not
   // off independent per-point residuals), so it is stored divided by it. Chosen on design seeds
   // 400-402 (stabbing's hanging pin end, catwalk_horizontal's and random_poses' box ends: the
-  // reported axial std was 25-45 mm, or 6e10 mm, against actual errors of 2-4 mm).
+  // reported axial std was 25-45 mm, or 6e7 mm, against actual errors of 2-4 mm).
   const double sigma = 0.01 / std::sqrt(std::max(0.25, cd_.axial_contrast));
   const double inflation = std::max(1.0, config_.covariance.inflation);
   f->covariance.row(2).setZero();
