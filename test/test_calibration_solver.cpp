@@ -232,3 +232,93 @@ TEST(CalibrationSolver, ObservationsFileErrorsNameTheField) {
         << e.what();
   }
 }
+
+// ---------------------------------------------------------------------------------------------
+// The camera's own weak-return bias law (core/calibration/weak_return_fit.hpp).
+
+namespace {
+
+/// Placements of a board whose white print returns amplitude a_light (varied per placement) and
+/// whose black print is below the law's floor; each placement's plane off by a random offset
+/// (the solved plane's error), depth noise sigma, and a share of wild samples.
+std::vector<WeakReturnSample> twoPrints(double B, int placements, double sigma, double wild,
+                                        uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0.0, sigma), plane(0.0, 0.004);
+  std::uniform_real_distribution<double> uni(0.0, 1.0);
+  const kinect_v2::AmplitudeModel law;
+  std::vector<WeakReturnSample> out;
+  for (int g = 0; g < placements; ++g) {
+    const double offset = plane(rng), a_light = 0.05 + 0.2 * uni(rng);
+    for (int i = 0; i < 200; ++i) {
+      const double a = i % 2 ? a_light * (0.9 + 0.2 * uni(rng)) : 0.002 + 0.01 * uni(rng);
+      const double bias = B * std::pow(std::max(a, law.bias_min_amplitude), -law.bias_power);
+      double r = offset + bias + noise(rng);
+      if (uni(rng) < wild) r += 0.1 * (uni(rng) - 0.5);
+      out.push_back({g, a, r});
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST(WeakReturnFit, LearnsTheCamerasOwnBiasFromTheTwoPrints) {
+  const kinect_v2::AmplitudeModel law;
+  for (uint32_t seed : {1u, 2u, 3u}) {
+    const double B = 1.5 * law.bias_coeff;
+    // Noise of a weak return (about 2 cm on the black print), 5 % wild samples.
+    const WeakReturnFit fit = fitWeakReturnBias(twoPrints(B, 8, 0.02, 0.05, seed), law);
+    ASSERT_TRUE(fit.fitted) << "seed " << seed << ": " << fit.note;
+    EXPECT_NEAR(fit.coeff, B, 0.1 * B) << "seed " << seed;
+    EXPECT_GT(fit.coeff_sigma, 0.0) << "seed " << seed;
+    EXPECT_EQ(fit.groups, 8);
+    // The offset that goes with it: the plane offsets' median, the bias at the floor apart.
+    const double at_floor = B * std::pow(law.bias_min_amplitude, -law.bias_power);
+    EXPECT_NEAR(fit.offset_shift, at_floor, 0.006) << "seed " << seed;
+  }
+}
+
+TEST(WeakReturnFit, KeepsTheSensorsLawWhereThePrintsShowNoContrast) {
+  const kinect_v2::AmplitudeModel law;
+  // Both prints below the floor (a board 6 m away): every sample reads the same bias.
+  std::vector<WeakReturnSample> far = twoPrints(law.bias_coeff, 10, 0.01, 0.0, 4);
+  for (WeakReturnSample& s : far) s.amplitude = std::min(s.amplitude, 0.015);
+  const WeakReturnFit fit = fitWeakReturnBias(far, law);
+  EXPECT_FALSE(fit.fitted);
+  EXPECT_EQ(fit.groups, 0);
+  EXPECT_NE(fit.note.find("hold the board nearer"), std::string::npos) << fit.note;
+  // Too few placements with contrast.
+  const WeakReturnFit few = fitWeakReturnBias(twoPrints(law.bias_coeff, 3, 0.01, 0.0, 5), law);
+  EXPECT_FALSE(few.fitted);
+  EXPECT_EQ(few.groups, 3);
+  // A sensor without the bias: B zero within its noise, used as 0.
+  const WeakReturnFit none = fitWeakReturnBias(twoPrints(0.0, 8, 0.005, 0.0, 6), law);
+  EXPECT_TRUE(none.fitted) << none.note;
+  EXPECT_NEAR(none.coeff, 0.0, 0.1 * law.bias_coeff);
+  // A bias that shrinks as the return weakens is not a weak-return bias.
+  const WeakReturnFit wrong =
+      fitWeakReturnBias(twoPrints(-law.bias_coeff, 8, 0.005, 0.0, 7), law);
+  EXPECT_FALSE(wrong.fitted);
+  EXPECT_NE(wrong.note.find("shrinks"), std::string::npos) << wrong.note;
+}
+
+TEST(WeakReturnFit, AmplitudeSamplesRoundTripAndBadOnesNameTheField) {
+  Synthetic s = makeRig(20, 2, 0.15, 0.008);
+  s.set.observations[1].amplitude = {{100.5, 80.0, 5.123, 0.0213}, {101.5, 80.0, 5.2, 0.0015}};
+  const std::string text = observationsToYaml(s.set);
+  const ObservationSet back = parseObservations(text, "obs.yaml");
+  ASSERT_EQ(back.observations[1].amplitude.size(), 2u);
+  EXPECT_NEAR(back.observations[1].amplitude[0].amplitude, 0.0213, 1e-7);
+  EXPECT_NEAR(back.observations[1].amplitude[1].z, 5.2, 1e-5);
+  EXPECT_TRUE(back.observations[0].amplitude.empty());
+  const std::string bad =
+      text.substr(0, text.find("0.0015")) + "-0.0015" + text.substr(text.find("0.0015") + 6);
+  try {
+    parseObservations(bad, "obs.yaml");
+    FAIL() << "a negative amplitude was read";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("observations[1] amplitude[1]"), std::string::npos)
+        << e.what();
+  }
+}

@@ -437,6 +437,20 @@ TEST(CutOut, MeasuredAmplitudeTakesTheWeakReturnBiasOutOfTheDepth) {
       ++read;
     }
   EXPECT_GT(read, 100);
+  // A camera whose rig file carries its own weak-return B is corrected with it.
+  DepthCorrection own;
+  own.weak_return_bias = 2.0 * model.bias_coeff;
+  CycleCamera own_law = makeCycleCamera(f, in.T_world_depth, in.T_color_depth, 0.0f, own);
+  correctWeakReturns(&own_law, cfg);
+  int read_own = 0;
+  for (int v = own_law.crop[1]; v < own_law.crop[3]; v += 3)
+    for (int u = own_law.crop[0]; u < own_law.crop[2]; u += 3) {
+      const float z = bright.image.depthAt(u, v);
+      if (!(z == z)) continue;
+      EXPECT_NEAR(own_law.image.depthAt(u, v), z - 2.0 * bias, 1e-5) << "pixel " << u << ", " << v;
+      ++read_own;
+    }
+  EXPECT_GT(read_own, 100);
   // With the amplitude model off (the default), the amplitude changes nothing.
   cfg.noise.amplitude_model = false;
   CycleCamera untouched = bright;

@@ -71,6 +71,28 @@ TEST(RigCalibration, DepthOffsetAndScaleLoadAndRoundTrip) {
   EXPECT_EQ(back.cameras[1].depth_scale, 1.0);
 }
 
+TEST(RigCalibration, WeakReturnBiasLoadsRoundTripsAndIsBounded) {
+  const std::string text =
+      replace(kValid, "    rotation: [0.0, 0.0, 0.0, 1.0]\n",
+              "    rotation: [0.0, 0.0, 0.0, 1.0]\n    weak_return_bias: 5.25e-9\n");
+  const RigCalibration rig = parseRigCalibration(text, "rig.yaml");
+  ASSERT_TRUE(rig.cameras[0].weak_return_bias.has_value());
+  EXPECT_DOUBLE_EQ(*rig.cameras[0].weak_return_bias, 5.25e-9);
+  EXPECT_FALSE(rig.cameras[1].weak_return_bias.has_value());  // cam2: the sensor's law
+  const RigCalibration back = parseRigCalibration(rigCalibrationToYaml(rig), "again");
+  EXPECT_EQ(back.cameras[0].weak_return_bias, rig.cameras[0].weak_return_bias);
+  EXPECT_FALSE(back.cameras[1].weak_return_bias.has_value());
+  const auto with = [](const std::string& line) {
+    return replace(kValid, "    translation: [0.2, 5.0, 5.0]\n",
+                   "    translation: [0.2, 5.0, 5.0]\n" + line);
+  };
+  expectRejected(with("    weak_return_bias: 4.0\n"),
+                 {"camera 'cam2'", "weak_return_bias", "outside [0, 4e-08]"});
+  expectRejected(with("    weak_return_bias: -1e-9\n"), {"camera 'cam2'", "weak_return_bias"});
+  expectRejected(with("    weak_return_bias: big\n"),
+                 {"camera 'cam2'", "weak_return_bias", "not a number"});
+}
+
 TEST(RigCalibrationBadInput, NonUnitQuaternionNamesCameraAndField) {
   expectRejected(replace(kValid, "[0.7071068, 0.0, 0.0, 0.7071068]", "[0.5, 0.0, 0.0, 0.5]"),
                  {"camera 'cam2'", "rotation", "norm 0.707"});

@@ -46,7 +46,8 @@ CycleRunner::CycleRunner(const EstimatorNodeConfig& config, TransformSource* tra
       continue;
     }
     const CameraCalibration& c = rig.cameras[i];
-    depth_corrections_[name] = DepthCorrection{c.depth_offset, c.depth_scale};
+    depth_corrections_[name] =
+        DepthCorrection{c.depth_offset, c.depth_scale, c.weak_return_bias.value_or(-1.0)};
   }
 }
 

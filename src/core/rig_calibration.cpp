@@ -118,7 +118,9 @@ RigCalibration parseRoot(const YAML::Node& root, const std::string& source) {
       fail(where, ": name must match [A-Za-z][A-Za-z0-9_]* (it prefixes topics and frames)");
     if (rig.find(cal.name) >= 0) fail(where, ": duplicate camera name");
     rejectUnknownKeys(
-        c, {"name", "translation", "rotation", "sensor", "depth_offset", "depth_scale"}, where);
+        c, {"name", "translation", "rotation", "sensor", "depth_offset", "depth_scale",
+            "weak_return_bias"},
+        where);
     const auto t = numbers(c["translation"], 3, where + " translation");
     const auto q = numbers(c["rotation"], 4, where + " rotation (x y z w)");
     const double qn = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
@@ -132,6 +134,10 @@ RigCalibration parseRoot(const YAML::Node& root, const std::string& source) {
                                       where + " depth_offset [m]");
     cal.depth_scale = optionalNumber(c["depth_scale"], 1.0, kMinDepthScale, kMaxDepthScale,
                                      where + " depth_scale");
+    if (c["weak_return_bias"])
+      cal.weak_return_bias =
+          optionalNumber(c["weak_return_bias"], 0.0, 0.0, kMaxWeakReturnBias,
+                         where + " weak_return_bias [m (1/m^2)^4]");
     rig.cameras.push_back(cal);
   }
   return rig;
@@ -174,6 +180,7 @@ std::string rigCalibrationToYaml(const RigCalibration& rig) {
     // The depth calibration only where there is one: a plain rig file stays as it was.
     if (c.depth_offset != 0.0) s << "    depth_offset: " << c.depth_offset << "\n";
     if (c.depth_scale != 1.0) s << "    depth_scale: " << c.depth_scale << "\n";
+    if (c.weak_return_bias) s << "    weak_return_bias: " << *c.weak_return_bias << "\n";
   }
   return s.str();
 }

@@ -181,22 +181,69 @@ CalibrationBagFrames readCalibrationBag(const std::string& path, const cal::Targ
     topics.insert(topics.end(), {t.image, t.depth, stripSlash(t.image), stripSlash(t.depth)});
   }
   std::vector<Pairer> pairers(cams.size(), Pairer(o.max_pair_dt));
+  // The IR amplitude images, per camera, matched to a pair's depth by stamp. The recorder writes
+  // one when it arrives, which may be after its set, so a pair waits until the camera's next
+  // pair (or the bag's end) before it is used.
+  std::map<std::string, size_t> amplitude_route;
+  if (!o.amplitude_topic.empty())
+    for (size_t i = 0; i < cams.size(); ++i) {
+      const std::string t = "/" + cams[i] + "/" + o.amplitude_topic;
+      amplitude_route[t] = i;
+      topics.insert(topics.end(), {t, stripSlash(t)});
+    }
+  using ImagePtr = sensor_msgs::Image::ConstPtr;
+  std::vector<std::deque<ImagePtr>> amplitudes(cams.size());
+  std::vector<std::pair<ImagePtr, ImagePtr>> pending(cams.size());
+  std::vector<bool> amplitude_warned(cams.size(), false);
   size_t read = 0;
+  const auto use = [&](size_t cam) {
+    const auto [image, depth] = pending[cam];
+    pending[cam] = {};
+    if (!image) return;
+    const CameraTopics t = topicsOf(cams[cam], o.image_topic);
+    const cv::Mat gray = grayOf(*image, "bag '" + path + "': " + t.image);
+    const DepthImage d = depthFromMsg(depth, "bag '" + path + "': " + t.depth);
+    AmplitudeImage amplitude;
+    for (const ImagePtr& a : amplitudes[cam]) {
+      if (std::abs((a->header.stamp - depth->header.stamp).toSec()) > o.max_pair_dt) continue;
+      const std::string where = "bag '" + path + "': /" + cams[cam] + "/" + o.amplitude_topic;
+      try {
+        amplitude = amplitudeFromMsg(a, where);
+        if (amplitude.width != d.width || amplitude.height != d.height)
+          fail(where, ": ", amplitude.width, "x", amplitude.height, " does not match the depth's ",
+               d.width, "x", d.height);
+      } catch (const InputError& e) {
+        amplitude = AmplitudeImage();
+        if (progress && !amplitude_warned[cam])
+          progress(std::string(e.what()) + " (the camera's depth is used without amplitude)");
+        amplitude_warned[cam] = true;
+      }
+      break;
+    }
+    out.frames.push_back(cal::extractObservation(target, out.cameras[cam], gray, d, 0,
+                                                 image->header.stamp.toSec(), o.capture,
+                                                 amplitude.empty() ? nullptr : &amplitude));
+    ++out.frames_per_camera[cam];
+    if (progress && ++read % 60 == 0) progress(progressLine(out.cameras, out.frames_per_camera));
+  };
   for (const rosbag::MessageInstance& m : rosbag::View(bag, rosbag::TopicQuery(topics))) {
     const std::string topic = "/" + stripSlash(m.getTopic());
     const auto img = m.instantiate<sensor_msgs::Image>();
     if (!img) fail("bag '", path, "': ", topic, " is not a sensor_msgs/Image");
+    const auto amp = amplitude_route.find(topic);
+    if (amp != amplitude_route.end()) {
+      std::deque<ImagePtr>& kept = amplitudes[amp->second];
+      kept.push_back(img);
+      if (kept.size() > 8) kept.pop_front();  // a few sets of one camera
+      continue;
+    }
     const auto [cam, is_depth] = route.at(topic);
-    const auto [image, depth] = pairers[cam].add(img, is_depth);
-    if (!image) continue;
-    const CameraTopics t = topicsOf(cams[cam], o.image_topic);
-    const cv::Mat gray = grayOf(*image, "bag '" + path + "': " + t.image);
-    const DepthImage d = depthFromMsg(depth, "bag '" + path + "': " + t.depth);
-    out.frames.push_back(cal::extractObservation(target, out.cameras[cam], gray, d, 0,
-                                                 image->header.stamp.toSec(), o.capture));
-    ++out.frames_per_camera[cam];
-    if (progress && ++read % 60 == 0) progress(progressLine(out.cameras, out.frames_per_camera));
+    const auto pair = pairers[cam].add(img, is_depth);
+    if (!pair.first) continue;
+    use(cam);  // the camera's previous pair: its amplitude has come by now
+    pending[cam] = pair;
   }
+  for (size_t cam = 0; cam < cams.size(); ++cam) use(cam);
   if (progress) progress(progressLine(out.cameras, out.frames_per_camera));
   return out;
 }

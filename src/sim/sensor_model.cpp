@@ -130,6 +130,9 @@ void setEffectParameter(SensorEffects* effects, const std::string& name, double 
       {"flying_weight_min", &SensorEffects::flying_weight_min, 0.0, 1.0},
       {"flying_weight_max", &SensorEffects::flying_weight_max, 0.0, 1.0},
       {"flying_jump", &SensorEffects::flying_jump, 0.0, 10.0},
+      // A device whose weak-return bias differs from the fitted sensor's (calibrate_rig learns
+      // it per camera); the rig file's bound.
+      {"brightness_bias_coeff", &SensorEffects::brightness_bias_coeff, 0.0, 4e-8},
   };
   std::string names = "flying_amplitude_weighted";
   if (name == names) {

@@ -16,6 +16,7 @@
 // offset and its spread) and a verdict; with --true-rig, the errors against the truth.
 // Exit status: 0 calibrated; 1 refused (the message names the camera and what to record);
 // 2 bad command line; 3 calibrated but a camera's figures are outside the verdict's limits.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -43,6 +44,30 @@ constexpr double kDeg = 180.0 / M_PI;
 /// intrinsics are off) and depth rms [m] (a Kinect v2 at 5-8 m: 5-15 mm).
 constexpr double kGoodCornerRms = 0.5, kGoodDepthRms = 0.02;
 
+/// Each camera's weak-return bias law from the target's two prints (only when the frames carried
+/// amplitude): the B written to the rig file, or why the sensor's is kept.
+void printWeakReturn(const CalibrationResult& r) {
+  if (std::none_of(r.cameras.begin(), r.cameras.end(),
+                   [](const CameraResult& c) { return c.weak_return.samples > 0; }))
+    return;
+  std::printf("weak-return bias B (the sensor's: %.4g m (1/m^2)^4), from the target's two prints:\n",
+              kinect_v2::AmplitudeModel{}.bias_coeff);
+  for (const CameraResult& c : r.cameras) {
+    const WeakReturnFit& w = c.weak_return;
+    if (w.samples == 0) {
+      std::printf("  %-8s no amplitude samples: the sensor's law\n", c.name.c_str());
+    } else if (w.fitted) {
+      std::printf("  %-8s B %.4g +- %.2g from %d placements (a %.4f-%.4f 1/m^2, rms %.1f mm); "
+                  "depth offset %.2f mm with it (%+.2f)\n",
+                  c.name.c_str(), w.coeff, w.coeff_sigma, w.groups, w.amplitude_lo,
+                  w.amplitude_hi, w.rms * 1e3, (c.depth_offset + w.offset_shift) * 1e3,
+                  w.offset_shift * 1e3);
+    } else {
+      std::printf("  %-8s %s\n", c.name.c_str(), w.note.c_str());
+    }
+  }
+}
+
 bool printTable(const CalibrationResult& r, const ObservationSet& set) {
   std::printf("%-8s %10s %8s %9s %10s %13s %12s %9s\n", "camera", "placements", "corners",
               "rms [px]", "depth n", "offset [mm]", "scale", "rms [mm]");
@@ -63,6 +88,7 @@ bool printTable(const CalibrationResult& r, const ObservationSet& set) {
   for (const auto& rej : r.rejected)
     std::printf("  rejected: %s placement %d: %s\n", rej.camera.c_str(), rej.placement,
                 rej.reason.c_str());
+  printWeakReturn(r);
   return good;
 }
 
@@ -101,7 +127,12 @@ void writeReport(const std::string& path, const CalibrationResult& r,
       << ", sigma_depth_offset: " << c.sigma_depth_offset << ", intrinsics: {fx: " << c.intrinsics.fx
       << ", fy: " << c.intrinsics.fy << ", cx: " << c.intrinsics.cx << ", cy: " << c.intrinsics.cy
       << ", D: [" << c.intrinsics.D[0] << ", " << c.intrinsics.D[1] << ", " << c.intrinsics.D[2]
-      << ", " << c.intrinsics.D[3] << ", " << c.intrinsics.D[4] << "]}";
+      << ", " << c.intrinsics.D[3] << ", " << c.intrinsics.D[4] << "]}"
+      << ", weak_return: {samples: " << c.weak_return.samples
+      << ", fitted: " << (c.weak_return.fitted ? "true" : "false")
+      << ", coeff: " << c.weak_return.coeff << ", coeff_sigma: " << c.weak_return.coeff_sigma
+      << ", groups: " << c.weak_return.groups << ", offset_shift: " << c.weak_return.offset_shift
+      << ", rms: " << c.weak_return.rms << "}";
     if (cmp)
       f << ", translation_error: " << cmp->cameras[i].translation_error
         << ", rotation_error: " << cmp->cameras[i].rotation_error
@@ -205,6 +236,11 @@ int main(int argc, char** argv) {
                  "the same board pose; 3: a board held 2 s at the recorder's 2 Hz)")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+  app.add_option("--amplitude-topic", bag_opt.amplitude_topic,
+                 "with --bag: the IR amplitude image relative to the camera, for each camera's "
+                 "weak-return bias law ('' to ignore it)")
+      ->capture_default_str()
+      ->needs(bag_o);
   bool no_weak_return = false;
   app.add_flag("--no-weak-return-model", no_weak_return,
                "with --bag: the depth has no Kinect v2 weak-return bias (another sensor, the "

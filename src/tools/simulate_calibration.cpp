@@ -68,7 +68,7 @@ cal::ObservationSet capture(sim::RigSimulator& sim, const sim::CalibrationTarget
         cv::cvtColor(bgr, gray, cv::COLOR_BGR2GRAY);
         cal::Observation ob = cal::extractObservation(tc.geometry, set.cameras[i], gray,
                                                       f.sensor_frame.depth, static_cast<int>(k),
-                                                      t, options);
+                                                      t, options, &f.sensor_frame.amplitude);
         if (ob.corners.empty()) continue;
         if (j == 0) ++seen[i];
         corners[i] += static_cast<int>(ob.corners.size());

@@ -32,6 +32,9 @@ inline size_t bytesPerPixel(DepthEncoding e) {
 struct DepthCorrection {
   double offset = 0.0;  ///< [m]
   double scale = 1.0;
+  /// [m (1/m^2)^4] the camera's own weak-return bias coefficient B (rig file weak_return_bias),
+  /// used where the frame carries its amplitude; < 0: the sensor's fitted B.
+  double weak_return_bias = -1.0;
   bool isNone() const { return offset == 0.0 && scale == 1.0; }
 };
 

@@ -13,8 +13,13 @@
 // depth calibration `depth_offset` [m] (default 0) and `depth_scale` (default 1): its depth image
 // reads z_meas = depth_scale * z_true + depth_offset along the depth camera's optical axis, and
 // the pose estimator (parameter `rig`) recovers z_true = (z_meas - depth_offset) / depth_scale.
+// Optional `weak_return_bias` [m (1/m^2)^4]: the camera's own B of the weak-return bias law
+// B max(a, a_min)^-4 (core/kinect_noise.hpp), learned by calibrate_rig from the target's two
+// prints where it could be; absent: the sensor's fitted B. Its depth_offset then goes with it
+// (the offset at the bias reference a_min once the camera's own law is removed).
 
 #include <Eigen/Geometry>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -26,12 +31,16 @@ struct CameraCalibration {
   std::string sensor = "kinect_v2";
   double depth_offset = 0.0;  ///< [m] |.| <= kMaxDepthOffset
   double depth_scale = 1.0;   ///< within kDepthScaleRange
+  std::optional<double> weak_return_bias;  ///< [m (1/m^2)^4] in [0, kMaxWeakReturnBias]
 };
 
 /// Bounds of the depth calibration (a Kinect v2 is off by tens of mm and about 2 %; more is a
 /// mistake in the file, e.g. millimetres for metres).
 constexpr double kMaxDepthOffset = 0.2;  ///< [m]
 constexpr double kMinDepthScale = 0.9, kMaxDepthScale = 1.1;
+/// Largest weak-return B: ten times the real sensor's (4.035e-9, 28.5 mm at a_min); more is a
+/// mistake in the file, e.g. another unit.
+constexpr double kMaxWeakReturnBias = 4e-8;
 
 struct RigCalibration {
   std::string world_frame = "world";

@@ -23,6 +23,10 @@ struct CalibrationBagOptions {
   /// [s] an image and a depth image of the same camera whose stamps differ by at most this form
   /// one frame: the recorder's synchroniser slop (nodes/record_calibration).
   double max_pair_dt = 0.02;
+  /// The IR amplitude image, relative to the camera (launch/calibrate.launch records it when the
+  /// driver sends it): matched to a frame's depth by stamp (within max_pair_dt) and used for the
+  /// camera's weak-return bias law. Frames without one are used without; '' ignores it.
+  std::string amplitude_topic = "sd/image_ir_rect";
   calibration::CaptureOptions capture;
 };
 

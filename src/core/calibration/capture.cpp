@@ -41,27 +41,42 @@ bool targetPose(const TargetGeometry& target, const CameraSetup& camera,
   return T->translation().z() > 0;
 }
 
-/// Whether target point (x, y) lies on white print at least `margin` from any darker print.
-bool onLightPrint(const TargetTexture& texture, double x, double y, double margin) {
+enum class Print { kLight, kDark, kBoth };
+
+/// Which print target point (x, y) lies on, at least `margin` from the other (kBoth: nearer).
+Print printAt(const TargetTexture& texture, double x, double y, double margin) {
+  int light = 0, dark = 0;
   for (const auto& [dx, dy] : {std::pair{0.0, 0.0}, {-1.0, -1.0}, {1.0, -1.0}, {1.0, 1.0},
                                {-1.0, 1.0}, {0.0, -1.0}, {0.0, 1.0}, {-1.0, 0.0}, {1.0, 0.0}}) {
     const double a = texture.albedo(x + dx * margin, y + dy * margin);
-    if (a < 0.5) return false;
+    (a < 0.5 ? dark : light) += 1;
   }
-  return true;
+  return dark == 0 ? Print::kLight : light == 0 ? Print::kDark : Print::kBoth;
+}
+
+/// Every step-th element of `all`, so that at most `max_samples` are kept.
+template <typename T>
+std::vector<T> thinned(const std::vector<T>& all, int max_samples) {
+  const size_t step =
+      std::max<size_t>(1, (all.size() + max_samples - 1) / std::max(1, max_samples));
+  std::vector<T> out;
+  for (size_t i = 0; i < all.size(); i += step) out.push_back(all[i]);
+  return out;
 }
 
 /// Depth pixels inside the projection of the shrunk outline (and on the white print, bias-corrected, when asked),
-/// thinned evenly to at most max_samples.
-std::vector<DepthSample> sampleDepth(const TargetGeometry& target, const Intrinsics& k,
-                                     const Eigen::Isometry3d& T_depth_target,
-                                     const DepthImage& depth, const CaptureOptions& options) {
+/// thinned evenly to at most max_samples, into obs->depth; with an amplitude image, the pixels
+/// on either print as read with their amplitudes into obs->amplitude.
+void sampleDepth(const TargetGeometry& target, const Intrinsics& k,
+                 const Eigen::Isometry3d& T_depth_target, const DepthImage& depth,
+                 const AmplitudeImage* amplitude, const CaptureOptions& options,
+                 Observation* obs) {
   const Eigen::Vector2d half = targetSize(target) / 2.0 -
                                Eigen::Vector2d::Constant(target.square_length / 2.0);
   std::vector<cv::Point> outline;
   for (const auto& [sx, sy] : {std::pair{-1, -1}, {1, -1}, {1, 1}, {-1, 1}}) {
     const Eigen::Vector3d p = T_depth_target * Eigen::Vector3d(sx * half.x(), sy * half.y(), 0);
-    if (p.z() <= 0) return {};
+    if (p.z() <= 0) return;
     outline.emplace_back(static_cast<int>(std::lround(k.fx * p.x() / p.z() + k.cx)),
                          static_cast<int>(std::lround(k.fy * p.y() / p.z() + k.cy)));
   }
@@ -80,14 +95,24 @@ std::vector<DepthSample> sampleDepth(const TargetGeometry& target, const Intrins
     texture_of = target;
   }
   std::vector<DepthSample> all;
+  std::vector<AmplitudeSample> with_amplitude;
+  const bool use_amplitude = amplitude && !amplitude->empty() &&
+                             amplitude->width == depth.width && amplitude->height == depth.height;
   for (int v = 0; v < mask.rows; ++v)
     for (int u = 0; u < mask.cols; ++u) {
       if (!mask.at<uint8_t>(v, u)) continue;
       const Eigen::Vector3d ray((u - k.cx) / k.fx, (v - k.cy) / k.fy, 1.0);
       const Eigen::Vector3d p = T_target_depth * (ray * (d / n.dot(ray)));
-      if (!onLightPrint(*texture, p.x(), p.y(), options.edge_margin)) continue;
+      const Print print = printAt(*texture, p.x(), p.y(), options.edge_margin);
+      if (print == Print::kBoth) continue;
       const float z = depth.depthAt(static_cast<uint32_t>(u), static_cast<uint32_t>(v));
       if (!(std::isfinite(z) && z > 0.0f)) continue;
+      if (use_amplitude) {
+        const float dn = amplitude->at(static_cast<uint32_t>(u), static_cast<uint32_t>(v));
+        if (dn > 0.0f)
+          with_amplitude.push_back({double(u), double(v), z, dn / options.amplitude_scale});
+      }
+      if (print != Print::kLight) continue;
       double z_read = z, sigma = 0.0;
       if (options.weak_return_model) {
         // Amplitude a = r cos(incidence) / range^2 of the white print at this pixel (placed by
@@ -102,18 +127,16 @@ std::vector<DepthSample> sampleDepth(const TargetGeometry& target, const Intrins
       }
       all.push_back({double(u), double(v), z_read, sigma});
     }
-  const size_t step = std::max<size_t>(1, (all.size() + options.max_depth_samples - 1) /
-                                              std::max(1, options.max_depth_samples));
-  std::vector<DepthSample> out;
-  for (size_t i = 0; i < all.size(); i += step) out.push_back(all[i]);
-  return out;
+  obs->depth = thinned(all, options.max_depth_samples);
+  obs->amplitude = thinned(with_amplitude, options.max_depth_samples);
 }
 
 }  // namespace
 
 Observation extractObservation(const TargetGeometry& target, const CameraSetup& camera,
                                const cv::Mat& gray, const DepthImage& depth, int placement,
-                               double stamp, const CaptureOptions& options) {
+                               double stamp, const CaptureOptions& options,
+                               const AmplitudeImage* amplitude) {
   Observation obs;
   obs.camera = camera.name;
   obs.placement = placement;
@@ -124,8 +147,8 @@ Observation extractObservation(const TargetGeometry& target, const CameraSetup& 
   if (!camera.depth_intrinsics || depth.width == 0 || !depth.data) return obs;
   Eigen::Isometry3d T_camera_target = Eigen::Isometry3d::Identity();
   if (!targetPose(target, camera, obs.corners, &T_camera_target)) return obs;
-  obs.depth = sampleDepth(target, *camera.depth_intrinsics,
-                          camera.T_camera_depth.inverse() * T_camera_target, depth, options);
+  sampleDepth(target, *camera.depth_intrinsics, camera.T_camera_depth.inverse() * T_camera_target,
+              depth, amplitude, options, &obs);
   return obs;
 }
 

@@ -111,7 +111,7 @@ TargetGeometry target(const YAML::Node& n, const std::string& where) {
 Observation observation(const YAML::Node& n, const ObservationSet& set, size_t index,
                         const std::string& source) {
   const std::string where = source + ": observations[" + std::to_string(index) + "]";
-  rejectUnknown(n, {"camera", "placement", "stamp", "corners", "depth"}, where);
+  rejectUnknown(n, {"camera", "placement", "stamp", "corners", "depth", "amplitude"}, where);
   Observation o;
   if (!n["camera"]) fail(where, ": field 'camera' is missing");
   o.camera = n["camera"].as<std::string>();
@@ -140,6 +140,18 @@ Observation observation(const YAML::Node& n, const ObservationSet& set, size_t i
     if (!(d[2] > 0)) fail(at, ": z = ", d[2], " m must be positive");
     if (d.size() == 4 && !(d[3] >= 0)) fail(at, ": sigma = ", d[3], " m must not be negative");
     o.depth.push_back({d[0], d[1], d[2], d.size() == 4 ? d[3] : 0.0});
+  }
+  const YAML::Node amplitude = n["amplitude"];
+  if (amplitude && !set.cameras[cam].depth_intrinsics)
+    fail(where, ": camera '", o.camera, "' has amplitude samples but no depth_intrinsics");
+  if (amplitude && !amplitude.IsSequence())
+    fail(where, " amplitude must be a list of [u, v, z, a]");
+  for (size_t i = 0; amplitude && i < amplitude.size(); ++i) {
+    const std::string at = where + " amplitude[" + std::to_string(i) + "] [u, v, z, a]";
+    const auto d = numbers(amplitude[i], 4, at);
+    if (!(d[2] > 0)) fail(at, ": z = ", d[2], " m must be positive");
+    if (!(d[3] > 0)) fail(at, ": a = ", d[3], " 1/m^2 must be positive");
+    o.amplitude.push_back({d[0], d[1], d[2], d[3]});
   }
   return o;
 }
@@ -316,6 +328,15 @@ std::string observationsToYaml(const ObservationSet& set) {
           << o.depth[i].v << ", " << std::setprecision(5) << o.depth[i].z;
         if (o.depth[i].sigma > 0) s << ", " << o.depth[i].sigma;
         s << "]";
+      }
+      s << "]\n";
+    }
+    if (!o.amplitude.empty()) {
+      s << "    amplitude: [";
+      for (size_t i = 0; i < o.amplitude.size(); ++i) {
+        const AmplitudeSample& a = o.amplitude[i];
+        s << (i ? ", " : "") << "[" << std::setprecision(1) << a.u << ", " << a.v << ", "
+          << std::setprecision(5) << a.z << ", " << std::setprecision(6) << a.amplitude << "]";
       }
       s << "]\n";
     }

@@ -410,6 +410,37 @@ std::vector<double> depthErrors(const Obs& o, const CameraSetup& setup, const Bl
   return err;
 }
 
+/// The amplitude samples of camera c against the solved model, each observation its group.
+std::vector<WeakReturnSample> amplitudeResiduals(const ObservationSet& set, size_t c,
+                                                 const Blocks& b,
+                                                 const std::vector<RejectedObservation>& rejected) {
+  std::vector<WeakReturnSample> out;
+  const CameraSetup& setup = set.cameras[c];
+  if (!setup.depth_intrinsics) return out;
+  for (size_t k = 0; k < set.observations.size(); ++k) {
+    const Observation& o = set.observations[k];
+    if (o.camera != setup.name || o.amplitude.empty() || !b.target.count(o.placement)) continue;
+    if (std::any_of(rejected.begin(), rejected.end(), [&](const RejectedObservation& r) {
+          return r.camera == o.camera && r.placement == o.placement;
+        }))
+      continue;
+    std::vector<DepthSample> px;
+    for (const AmplitudeSample& a : o.amplitude) px.push_back({a.u, a.v, a.z, 0.0});
+    const std::vector<Eigen::Vector3d> rays = undistortedRays(px, *setup.depth_intrinsics);
+    const std::array<double, 2> plain = {0.0, 1.0};  // z_meas - z_plane
+    for (size_t i = 0; i < rays.size(); ++i) {
+      DepthResidual r{rays[i], o.amplitude[i].z, setup.T_camera_depth.linear(),
+                      setup.T_camera_depth.translation(), 1.0};
+      double e = 0.0;
+      if (!r(b.camera[c].data(), b.target.at(o.placement).data(), plain.data(), &e)) continue;
+      const double z_plane = o.amplitude[i].z - e;
+      const double model = b.depth[c][1] * z_plane + b.depth[c][0];
+      out.push_back({static_cast<int>(k), o.amplitude[i].amplitude, o.amplitude[i].z - model});
+    }
+  }
+  return out;
+}
+
 double rms(const std::vector<double>& v) {
   double s = 0;
   for (double x : v) s += x * x;
@@ -555,6 +586,12 @@ CalibrationResult calibrate(const ObservationSet& set, const SolverOptions& opt)
     cr.depth_samples = static_cast<int>(de.size());
     cr.corner_rms_px = rms(ce);
     cr.depth_rms = rms(de);
+    if (opt.fit_weak_return && opt.estimate_depth_offset) {
+      const std::vector<WeakReturnSample> samples =
+          amplitudeResiduals(set, c, b, result.rejected);
+      if (!samples.empty())
+        cr.weak_return = fitWeakReturnBias(samples, kinect_v2::AmplitudeModel{}, opt.weak_return);
+    }
     for (double e : ce) all += e * e, ++n_all;
     if (cr.corner_rms_px > opt.max_camera_rms_px)
       fail("camera ", cr.name, ": corner reprojection rms ", cr.corner_rms_px,
@@ -583,6 +620,10 @@ RigCalibration CalibrationResult::rig(const ObservationSet& set) const {
     cc.T_world_link = cameras[c].T_world_camera;
     cc.depth_offset = cameras[c].depth_offset;
     cc.depth_scale = cameras[c].depth_scale;
+    if (cameras[c].weak_return.fitted) {
+      cc.weak_return_bias = cameras[c].weak_return.coeff;
+      cc.depth_offset += cameras[c].weak_return.offset_shift;
+    }
     rig.cameras.push_back(cc);
   }
   return rig;

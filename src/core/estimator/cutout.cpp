@@ -56,6 +56,7 @@ CycleCamera makeCycleCamera(const SensorFrameData& frame, const Eigen::Isometry3
   // Corrected where read (DepthImage::depthAt): the cut-out, carving's occlusion test and the
   // seen-through pixels all see the true depth, and no pixel is copied.
   cam.image.setCorrection(correction, n + " depth");
+  cam.weak_return_bias = correction.weak_return_bias;
   // An amplitude image that does not fit the depth was refused where the frame was read (the
   // message's conversion names the camera and the field); here it is simply not used.
   if (amplitudeMismatch(frame.amplitude, frame.depth, n).empty()) cam.amplitude = frame.amplitude;
@@ -131,6 +132,8 @@ void correctWeakReturns(CycleCamera* cam, const EstimatorConfig& config) {
   const DepthImage& in = cam->image;
   DepthImage out = DepthImage::allocate(in.width, in.height, DepthEncoding::kF32Metres);
   const double amp_scale = config.noise.amplitude_scale;
+  kinect_v2::AmplitudeModel law = kAmplitude;
+  if (cam->weak_return_bias >= 0.0) law.bias_coeff = cam->weak_return_bias;  // the rig file's
   for (int v = v0; v < v1; ++v)
     for (int u = u0; u < u1; ++u) {
       const float z = in.depthAt(u, v);
@@ -142,7 +145,7 @@ void correctWeakReturns(CycleCamera* cam, const EstimatorConfig& config) {
       // The weak-return bias of the measured amplitude, along the depth (the camera reads a
       // weak return farther), less what the depth calibration removed. A pixel moved along its
       // ray keeps its (u, v): back-projection is linear in the depth.
-      const double bias = kinect_v2::weakReturnBias(kAmplitude, dn / amp_scale,
+      const double bias = kinect_v2::weakReturnBias(law, dn / amp_scale,
                                                     config.profile_fit.bias_reference);
       out.setDepth(u, v, static_cast<float>(z - bias));
     }

@@ -34,6 +34,9 @@ struct CaptureOptions {
   double light_reflectivity = 0.8;
   /// [m] 10 mm: half a depth pixel at 7 m, so that a sample's pixel centre sees one print.
   double edge_margin = 0.01;
+  /// [DN per 1/m^2] the IR image's digital numbers per unit of amplitude (a Kinect v2's:
+  /// kinect_v2::kDnPerAmplitude; the estimator's noise/amplitude_scale).
+  double amplitude_scale = 40260.0;
 };
 
 /// The observation of `camera` at `placement` (empty `corners` when the target was not found).
@@ -41,8 +44,13 @@ struct CaptureOptions {
 /// inside the target's outline shrunk by half a square (on its white print; with
 /// `weak_return_model`, bias-corrected and with their own noise), placed by a cv::solvePnP pose of the detected corners and camera.T_camera_depth;
 /// zero / invalid depths dropped.
+/// Amplitude samples (only when `amplitude` is given, on the depth image's grid): the depth pixels
+/// inside the same outline on either print (at least `edge_margin` from the other), as read,
+/// with their IR amplitude / options.amplitude_scale; pixels of amplitude 0 dropped; thinned to
+/// at most max_depth_samples.
 Observation extractObservation(const TargetGeometry& target, const CameraSetup& camera,
                                const cv::Mat& gray, const DepthImage& depth, int placement,
-                               double stamp, const CaptureOptions& options = {});
+                               double stamp, const CaptureOptions& options = {},
+                               const AmplitudeImage* amplitude = nullptr);
 
 }  // namespace drill_pipe_pose::calibration

@@ -67,12 +67,24 @@ struct DepthSample {
   double sigma = 0;
 };
 
+/// A depth pixel on the target as the camera read it (no correction), with the amplitude of its
+/// return a = reflectivity cos(incidence) / range^2 [1/m^2] measured in the frame's IR image:
+/// the evidence for the camera's own weak-return bias law (core/calibration/weak_return_fit.hpp).
+/// Taken on both prints, so that every placement shows two amplitude levels.
+struct AmplitudeSample {
+  double u = 0, v = 0, z = 0;
+  double amplitude = 0;  ///< [1/m^2], > 0
+};
+
 struct Observation {
   std::string camera;  ///< CameraSetup::name
   int placement = 0;   ///< placement index (same number = same target pose in every camera)
   double stamp = 0.0;  ///< [s] capture time, for messages
   std::vector<CornerObservation> corners;
   std::vector<DepthSample> depth;  ///< empty when the camera has no depth or none was sampled
+  /// Empty when the frame had no IR amplitude image (the solver then keeps the sensor's
+  /// default bias law for the camera).
+  std::vector<AmplitudeSample> amplitude;
 };
 
 /// Where the world frame comes from: either one placement of the target at a known world pose

@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "drill_pipe_pose/core/calibration/observations.hpp"
+#include "drill_pipe_pose/core/calibration/weak_return_fit.hpp"
 #include "drill_pipe_pose/core/rig_calibration.hpp"
 
 namespace drill_pipe_pose::calibration {
@@ -52,6 +53,10 @@ struct SolverOptions {
   /// [px] a camera whose corner rms exceeds this at the end is refused: its intrinsics do not
   /// match its images.
   double max_camera_rms_px = 1.5;
+  /// Fit each camera's weak-return bias law from its amplitude samples (weak_return_fit.hpp)
+  /// where the observations carry them and the solve estimates depth offsets.
+  bool fit_weak_return = true;
+  WeakReturnFitOptions weak_return;
 };
 
 struct CameraResult {
@@ -69,6 +74,9 @@ struct CameraResult {
   /// 1-sigma of the pose from the solver's covariance: translation [m], rotation [rad].
   double sigma_translation = 0.0, sigma_rotation = 0.0;
   double sigma_depth_offset = 0.0;  ///< [m]
+  /// The camera's own weak-return bias law (fitted: written to the rig file with the depth
+  /// offset that goes with it; else `note` says why the sensor's law is kept).
+  WeakReturnFit weak_return;
 };
 
 struct RejectedObservation {

@@ -30,6 +30,9 @@ struct CycleCamera {
   PinholeCamera color;
   DepthImage image;
   AmplitudeImage amplitude;  ///< on image's grid; empty when the frame carries none
+  /// [m (1/m^2)^4] the camera's weak-return B (DepthCorrection::weak_return_bias; < 0: the
+  /// sensor's fitted one).
+  double weak_return_bias = -1.0;
   Eigen::Isometry3d T_world_depth = Eigen::Isometry3d::Identity();
   Eigen::Isometry3d T_color_depth = Eigen::Isometry3d::Identity();
   Eigen::Isometry3d T_color_world = Eigen::Isometry3d::Identity();  ///< derived
