@@ -97,6 +97,10 @@ class PoseEstimatorNode {
     for (const auto& [cam, c] : runner_.depthCorrections()) {
       std::snprintf(buf, sizeof buf, " %s %+.1f mm x %.4f", cam.c_str(), c.offset * 1e3, c.scale);
       list += buf;
+      if (c.weak_return_bias >= 0.0) {  // its own weak-return law (calibrate_rig)
+        std::snprintf(buf, sizeof buf, " (weak-return B %.4g)", c.weak_return_bias);
+        list += buf;
+      }
     }
     ROS_INFO("pose_estimator: depth corrections from rig file '%s':%s", cfg_.rig.c_str(),
              list.empty() ? " none" : list.c_str());
