@@ -410,15 +410,15 @@ std::vector<double> depthErrors(const Obs& o, const CameraSetup& setup, const Bl
   return err;
 }
 
-/// The amplitude samples of camera c against the solved model, each observation its group.
+/// The amplitude samples of camera c against the solved model, grouped by placement (the frames
+/// of one placement share its solved plane, and so its error).
 std::vector<WeakReturnSample> amplitudeResiduals(const ObservationSet& set, size_t c,
                                                  const Blocks& b,
                                                  const std::vector<RejectedObservation>& rejected) {
   std::vector<WeakReturnSample> out;
   const CameraSetup& setup = set.cameras[c];
   if (!setup.depth_intrinsics) return out;
-  for (size_t k = 0; k < set.observations.size(); ++k) {
-    const Observation& o = set.observations[k];
+  for (const Observation& o : set.observations) {
     if (o.camera != setup.name || o.amplitude.empty() || !b.target.count(o.placement)) continue;
     if (std::any_of(rejected.begin(), rejected.end(), [&](const RejectedObservation& r) {
           return r.camera == o.camera && r.placement == o.placement;
@@ -435,7 +435,7 @@ std::vector<WeakReturnSample> amplitudeResiduals(const ObservationSet& set, size
       if (!r(b.camera[c].data(), b.target.at(o.placement).data(), plain.data(), &e)) continue;
       const double z_plane = o.amplitude[i].z - e;
       const double model = b.depth[c][1] * z_plane + b.depth[c][0];
-      out.push_back({static_cast<int>(k), o.amplitude[i].amplitude, o.amplitude[i].z - model});
+      out.push_back({o.placement, o.amplitude[i].amplitude, o.amplitude[i].z - model});
     }
   }
   return out;

@@ -77,7 +77,8 @@ WeakReturnFit fitWeakReturnBias(const std::vector<WeakReturnSample>& samples,
   fit.groups = static_cast<int>(groups.size());
   if (fit.groups < options.min_groups) {
     std::ostringstream why;
-    why << "the sensor's law kept: " << fit.groups << " placement(s) show its two prints "
+    why.precision(1);
+    why << std::fixed << "the sensor's law kept: " << fit.groups << " placement(s) show its two prints "
         << options.min_contrast * 1e3 << " mm or more apart in predicted bias (at least "
         << options.min_groups << " needed; the best shows " << best_contrast * 1e3
         << " mm; hold the board nearer, where the white print returns strongly)";

@@ -21,7 +21,7 @@
 namespace drill_pipe_pose::calibration {
 
 struct WeakReturnSample {
-  int group = 0;          ///< the observation (camera at one placement) it belongs to
+  int group = 0;          ///< the placement it was seen at (one camera's frames of it share a plane)
   double amplitude = 0;   ///< [1/m^2]
   double residual = 0;    ///< [m] depth as read - the solved model's depth (scale z + offset)
 };
