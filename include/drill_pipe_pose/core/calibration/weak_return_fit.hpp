@@ -26,12 +26,14 @@ struct WeakReturnSample {
   double residual = 0;    ///< [m] depth as read - the solved model's depth (scale z + offset)
 };
 
+/// The options were set from the sensor's figures before the fit first ran, and not tuned.
 struct WeakReturnFitOptions {
   /// [m] a placement counts when the prior law predicts at least this much bias between its
   /// brightest and its weakest samples. 5 mm: five times a Kinect v2's depth noise floor on a
   /// strong return (1.46 mm, the sensor check's), so the contrast stands above the noise.
   double min_contrast = 0.005;
-  /// Placements with contrast the fit needs; fewer and the camera keeps the sensor's law.
+  /// Placements with contrast the fit needs; fewer and the camera keeps the sensor's law (5: a
+  /// jackknife over fewer says little about its own spread).
   int min_groups = 5;
   /// The fitted B is used only when its jackknife standard error is at most this share of it
   /// (or of the sensor's B, when smaller: a B of zero within its noise is a sensor without the
