@@ -5,6 +5,8 @@
 
 --new-bag runs NEW on BAG2 (OLD stays on BAG): the cost of a change in the input, e.g. the same
 build on bags of two sensor models (then OLD_BENCH and NEW_BENCH may be the same program).
+--old-param / --new-param KEY=VALUE (repeatable) are given to one side only: the cost of a
+setting, e.g. the same program with noise/amplitude_model=false and =true.
 
 Runs OLD and NEW alternately N times (default 5) on BAG, single-threaded (--threads 1, or
 --param threads=1 for a build that takes --param), reads each run's "time per cycle" line
@@ -43,6 +45,10 @@ def main():
     ap.add_argument("bag")
     ap.add_argument("--runs", type=int, default=5, help="pairs of runs (default 5)")
     ap.add_argument("--new-bag", help="the bag NEW runs on (default: BAG)")
+    ap.add_argument("--old-param", action="append", default=[], metavar="KEY=VALUE",
+                    help="a --param for OLD only (repeatable)")
+    ap.add_argument("--new-param", action="append", default=[], metavar="KEY=VALUE",
+                    help="a --param for NEW only (repeatable)")
     args, extra = ap.parse_known_args()
     if extra and extra[0] == "--":
         extra = extra[1:]
@@ -51,8 +57,9 @@ def main():
         ap.error("--runs must be >= 1")
     ratios_med, ratios_p95 = [], []
     for i in range(args.runs):
-        old = run(args.old, args.bag, args.extra)
-        new = run(args.new, args.new_bag or args.bag, args.extra)
+        old = run(args.old, args.bag, args.extra + [a for kv in args.old_param for a in ("--param", kv)])
+        new = run(args.new, args.new_bag or args.bag,
+                  args.extra + [a for kv in args.new_param for a in ("--param", kv)])
         ratios_med.append(new[0] / old[0])
         ratios_p95.append(new[1] / old[1])
         print(f"pair {i + 1}: old median {old[0]:.2f} p95 {old[1]:.2f} ms | new median "

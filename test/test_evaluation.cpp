@@ -185,6 +185,12 @@ TEST(Evaluation, EveryEndTalliesThePublishedTypesPerTrueEnd) {
   EXPECT_NEAR(ty.least_not_top.at("4in"), 0.4, 1e-12);  // in the report that published 5in
   EXPECT_NEAR(ty.least_not_top.at("5in"), 0.2, 1e-12);
   EXPECT_NEAR((ty.position - a).norm(), 0.0, 1e-12);
+  // No report published its type above 0.9; one more that does counts as confident.
+  EXPECT_TRUE(ty.confident.empty());
+  TypeTally more = ty;
+  more.add("5in", names, {0.05, 0.95});
+  EXPECT_EQ(more.confident.at("5in"), 1u);
+  EXPECT_EQ(more.confident.count("4in"), 0u);
 }
 
 TEST(Evaluation, ReportedSigmaAgainstTheActualErrorAndTheFreshPoses) {

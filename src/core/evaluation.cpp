@@ -199,6 +199,7 @@ void TypeTally::add(const std::string& type, const std::vector<std::string>& nam
   ++top[type];
   for (size_t k = 0; k < names.size() && k < probabilities.size(); ++k) {
     probability[names[k]] += probabilities[k];
+    if (names[k] == type && probabilities[k] > kConfidentProbability) ++confident[type];
     if (names[k] != type) {
       auto [it, fresh] = least_not_top.emplace(names[k], probabilities[k]);
       if (!fresh) it->second = std::min(it->second, probabilities[k]);

@@ -381,6 +381,8 @@ void reportInstances(const BenchOptions& o, const InstanceEvaluation& ev) {
                 << " z=" << ty.position.z() << " type=" << name << " reports=" << ty.reports
                 << " top_share=" << share(top == ty.top.end() ? 0 : top->second, ty.reports)
                 << " mean_probability=" << sum / static_cast<double>(ty.reports)
+                << " confident_share="
+                << share(ty.confident.count(name) ? ty.confident.at(name) : 0, ty.reports)
                 << " least_probability_not_top="
                 << (least == ty.least_not_top.end() ? 1.0 : least->second) << "\n";
     }
@@ -444,6 +446,9 @@ void report(const BenchOptions& o, const std::string& method, size_t n_cameras, 
                 << " type=" << name << std::setprecision(4)
                 << " top_share=" << (it == ty.top.end() ? 0.0 : 1.0 * it->second / ty.reports)
                 << " mean_probability=" << sum / ty.reports;
+      const auto sure = ty.confident.find(name);
+      std::cout << " confident_share="
+                << (sure == ty.confident.end() ? 0.0 : 1.0 * sure->second / ty.reports);
       // 1 where the type was published in every valid cycle.
       const auto least = ty.least_not_top.find(name);
       std::cout << " least_probability_not_top="

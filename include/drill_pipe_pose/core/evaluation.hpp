@@ -116,6 +116,11 @@ struct TypeTally {
   std::map<std::string, double> probability;  ///< summed probability per type
   /// Per type: its least probability in a report that published another.
   std::map<std::string, double> least_not_top;
+  /// Reports per published type whose own probability was above kConfidentProbability.
+  std::map<std::string, size_t> confident;
+  /// A published type above this probability is a confident call (the pipe-type issue's line:
+  /// never a wrong type above it).
+  static constexpr double kConfidentProbability = 0.9;
   /// One report: its published type, and every candidate's name and probability.
   void add(const std::string& type, const std::vector<std::string>& names,
            const std::vector<double>& probabilities);
