@@ -306,8 +306,11 @@ TEST(WeakReturnFit, KeepsTheSensorsLawWhereThePrintsShowNoContrast) {
 TEST(WeakReturnFit, AmplitudeSamplesRoundTripAndBadOnesNameTheField) {
   Synthetic s = makeRig(20, 2, 0.15, 0.008);
   s.set.observations[1].amplitude = {{100.5, 80.0, 5.123, 0.0213}, {101.5, 80.0, 5.2, 0.0015}};
+  s.set.observations[1].depth[0].amplitude = 0.0225;  // a sample the capture corrected
   const std::string text = observationsToYaml(s.set);
   const ObservationSet back = parseObservations(text, "obs.yaml");
+  EXPECT_NEAR(back.observations[1].depth[0].amplitude, 0.0225, 1e-7);
+  EXPECT_EQ(back.observations[1].depth[1].amplitude, 0.0);
   ASSERT_EQ(back.observations[1].amplitude.size(), 2u);
   EXPECT_NEAR(back.observations[1].amplitude[0].amplitude, 0.0213, 1e-7);
   EXPECT_NEAR(back.observations[1].amplitude[1].z, 5.2, 1e-5);

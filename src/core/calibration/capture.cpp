@@ -113,19 +113,19 @@ void sampleDepth(const TargetGeometry& target, const Intrinsics& k,
           with_amplitude.push_back({double(u), double(v), z, dn / options.amplitude_scale});
       }
       if (print != Print::kLight) continue;
-      double z_read = z, sigma = 0.0;
+      double z_read = z, sigma = 0.0, a = 0.0;
       if (options.weak_return_model) {
         // Amplitude a = r cos(incidence) / range^2 of the white print at this pixel (placed by
         // the PnP pose): how much nearer than the floor's bias it reads, and its noise.
         const double range = ray.norm() * d / n.dot(ray);
         const double cos_inc = std::abs(n.dot(ray.normalized()));
-        const double a = options.light_reflectivity * cos_inc / (range * range);
+        a = options.light_reflectivity * cos_inc / (range * range);
         const kinect_v2::AmplitudeModel model;
         z_read += kinect_v2::weakReturnBias(model, model.bias_min_amplitude, 0.0) -
                   kinect_v2::weakReturnBias(model, a, 0.0);
         sigma = kinect_v2::amplitudeSigma(model, a);
       }
-      all.push_back({double(u), double(v), z_read, sigma});
+      all.push_back({double(u), double(v), z_read, sigma, a});
     }
   obs->depth = thinned(all, options.max_depth_samples);
   obs->amplitude = thinned(with_amplitude, options.max_depth_samples);

@@ -135,11 +135,15 @@ Observation observation(const YAML::Node& n, const ObservationSet& set, size_t i
   if (depth && !set.cameras[cam].depth_intrinsics)
     fail(where, ": camera '", o.camera, "' has depth samples but no depth_intrinsics");
   for (size_t i = 0; depth && i < depth.size(); ++i) {
-    const std::string at = where + " depth[" + std::to_string(i) + "] [u, v, z(, sigma)]";
-    const auto d = numbers(depth[i], depth[i].IsSequence() && depth[i].size() == 4 ? 4 : 3, at);
+    const std::string at = where + " depth[" + std::to_string(i) + "] [u, v, z(, sigma(, a))]";
+    const size_t n = depth[i].IsSequence() && (depth[i].size() == 4 || depth[i].size() == 5)
+                         ? depth[i].size()
+                         : 3;
+    const auto d = numbers(depth[i], n, at);
     if (!(d[2] > 0)) fail(at, ": z = ", d[2], " m must be positive");
-    if (d.size() == 4 && !(d[3] >= 0)) fail(at, ": sigma = ", d[3], " m must not be negative");
-    o.depth.push_back({d[0], d[1], d[2], d.size() == 4 ? d[3] : 0.0});
+    if (d.size() >= 4 && !(d[3] >= 0)) fail(at, ": sigma = ", d[3], " m must not be negative");
+    if (d.size() == 5 && !(d[4] >= 0)) fail(at, ": a = ", d[4], " 1/m^2 must not be negative");
+    o.depth.push_back({d[0], d[1], d[2], d.size() >= 4 ? d[3] : 0.0, d.size() == 5 ? d[4] : 0.0});
   }
   const YAML::Node amplitude = n["amplitude"];
   if (amplitude && !set.cameras[cam].depth_intrinsics)
@@ -326,7 +330,8 @@ std::string observationsToYaml(const ObservationSet& set) {
       {
         s << (i ? ", " : "") << "[" << std::setprecision(1) << o.depth[i].u << ", "
           << o.depth[i].v << ", " << std::setprecision(5) << o.depth[i].z;
-        if (o.depth[i].sigma > 0) s << ", " << o.depth[i].sigma;
+        if (o.depth[i].sigma > 0 || o.depth[i].amplitude > 0) s << ", " << o.depth[i].sigma;
+        if (o.depth[i].amplitude > 0) s << ", " << std::setprecision(6) << o.depth[i].amplitude;
         s << "]";
       }
       s << "]\n";

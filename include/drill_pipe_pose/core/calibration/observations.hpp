@@ -65,6 +65,9 @@ struct CornerObservation {
 struct DepthSample {
   double u = 0, v = 0, z = 0;
   double sigma = 0;
+  /// [1/m^2] the amplitude whose weak-return bias z was corrected for with the sensor's law
+  /// (0: z as read), so that the solver can correct it again with the camera's own law.
+  double amplitude = 0;
 };
 
 /// A depth pixel on the target as the camera read it (no correction), with the amplitude of its
