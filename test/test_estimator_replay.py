@@ -120,6 +120,28 @@ class EstimatorReplay(unittest.TestCase):
         self.assertNotEqual(ids["box_end"], ids["pin_end"])
         self.assertNotIn(0, ids["box_end"] | ids["pin_end"])
         last = {e.end.label: e for e in valid}
+        # The status carries each primary end's type, its probability and whether it is
+        # ambiguous, as pipe_end_types has them for the same cycle.
+        typed_at = {m.header.stamp.to_nsec(): {e.end.label: e for e in m.ends[:2]} for m in self.typed}
+        compared = 0
+        for st in self.status:
+            self.assertEqual(len(st.types), len(st.ends))
+            self.assertEqual(len(st.type_probability), len(st.ends))
+            self.assertEqual(len(st.type_ambiguous), len(st.ends))
+            same = typed_at.get(st.header.stamp.to_nsec())
+            if not same:
+                continue
+            for k, label in enumerate(st.ends):
+                e = same.get(label)
+                if e is None or not e.end.valid:
+                    continue
+                compared += 1
+                self.assertEqual(st.types[k], e.type, f"{label} at {st.header.stamp.to_sec()}")
+                self.assertEqual(st.type_ambiguous[k], e.ambiguous)
+                if e.type in e.candidates:
+                    self.assertAlmostEqual(st.type_probability[k],
+                                           e.probabilities[list(e.candidates).index(e.type)], places=9)
+        self.assertGreater(compared, 100, "too few cycles with both the status and pipe_end_types")
         for label, e in last.items():
             self.assertEqual(e.type, "5in_NC50_6.625od", f"{label} (seed {SEED})")
             self.assertGreater(e.od_measurements, 10)

@@ -250,6 +250,18 @@ class PoseEstimatorNode {
       status.residual.push_back(est.residual);
       status.instances.push_back(r.instances[e]);
       typed.ends.push_back(typedEnd(end, pub.valid ? &pub.estimate : nullptr));
+      // The primary pair's type on the status too: a machine reading <end>/pose sees there
+      // whether the type (and so the model the pose was fitted with) is in doubt.
+      const TypedPipeEnd& t = typed.ends.back();
+      double top = 0.0;
+      for (size_t k = 0; k < t.candidates.size() && k < t.probabilities.size(); ++k)
+        if (t.candidates[k] == t.type) top = t.probabilities[k];
+      status.types.push_back(t.type);
+      status.type_probability.push_back(top);
+      status.type_ambiguous.push_back(!t.type.empty() && t.ambiguous);
+      if (end.valid && !t.type.empty() && t.ambiguous)
+        message += std::string(end.label) + ": type ambiguous (" + describeTypes(t) +
+                   "), posed with " + t.type + "'s model. ";
     }
     // Every other end in the work zone (several pipes at once): pipe_end_types only.
     for (const EndEstimate& est : r.others) {
@@ -270,6 +282,22 @@ class PoseEstimatorNode {
     status.latency_ms = (wallNow() - out.cycle.last_arrival) * 1e3;
     status_pub_.publish(status);
     publishDebug(r, stamp, out.inputs);
+  }
+
+  /// "5in_NC50_6.625od 0.55, 4.5in_NC50_6.625od 0.45": the candidates above 0.05, most likely
+  /// first.
+  static std::string describeTypes(const TypedPipeEnd& t) {
+    std::vector<std::pair<double, std::string>> c;
+    for (size_t k = 0; k < t.candidates.size() && k < t.probabilities.size(); ++k)
+      if (t.probabilities[k] >= 0.05) c.emplace_back(t.probabilities[k], t.candidates[k]);
+    std::sort(c.rbegin(), c.rend());
+    std::string s;
+    char buf[32];
+    for (const auto& [p, name] : c) {
+      std::snprintf(buf, sizeof buf, " %.2f", p);
+      s += (s.empty() ? "" : ", ") + name + buf;
+    }
+    return s;
   }
 
   /// The end with its instance id and pipe type (of the estimate it publishes; null: none).
