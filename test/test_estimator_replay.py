@@ -28,6 +28,7 @@ import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from drill_pipe_pose.msg import EstimatorStatus, PipeEndArray, PipeEnds, SensorFrame
+from visualization_msgs.msg import Marker, MarkerArray
 
 PKG = "drill_pipe_pose"
 SEED = 3
@@ -59,6 +60,8 @@ class EstimatorReplay(unittest.TestCase):
         cls.diag = {}
         cls.status = []
         cls.typed = []
+        cls.markers = []
+        rospy.Subscriber("/drill_pipe_pose/debug/models", MarkerArray, lambda m: cls.markers.append(m))
         rospy.Subscriber("/drill_pipe_pose/pipe_ends", PipeEnds, lambda m: cls.ends.append(m))
         rospy.Subscriber("/drill_pipe_pose/pipe_end_types", PipeEndArray, lambda m: cls.typed.append(m))
         rospy.Subscriber("/drill_pipe_pose/status", EstimatorStatus, lambda m: cls.status.append(m))
@@ -86,6 +89,7 @@ class EstimatorReplay(unittest.TestCase):
         rec = os.path.join(self.tmp, "estimates.bag")
         del self.status[:]
         del self.typed[:]
+        del self.markers[:]
         # Quarter speed: accuracy, not throughput (scripts/bench measures that); a CI machine
         # running the other tests beside the node must not drop cycles.
         self.play(self.bag, extra=("-r", "0.25"), record=rec)
@@ -142,6 +146,15 @@ class EstimatorReplay(unittest.TestCase):
                     self.assertAlmostEqual(st.type_probability[k],
                                            e.probabilities[list(e.candidates).index(e.type)], places=9)
         self.assertGreater(compared, 100, "too few cycles with both the status and pipe_end_types")
+        # rviz: each valid end's marker is its published type's model (the type's profile
+        # revolved, a triangle list), not the one mesh file of the 5" NC50.
+        shown = [mk for ma in self.markers for mk in ma.markers
+                 if mk.ns in ("box_end", "pin_end") and mk.action == Marker.ADD]
+        self.assertGreater(len(shown), 50, f"too few end markers ({len(self.markers)} arrays)")
+        for mk in shown:
+            self.assertEqual(mk.type, Marker.TRIANGLE_LIST, mk.ns)
+            self.assertEqual(len(mk.points) % 3, 0)
+            self.assertGreater(len(mk.points), 300, mk.ns)
         for label, e in last.items():
             self.assertEqual(e.type, "5in_NC50_6.625od", f"{label} (seed {SEED})")
             self.assertGreater(e.od_measurements, 10)

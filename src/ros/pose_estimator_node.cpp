@@ -25,6 +25,7 @@
 #include <map>
 
 #include "drill_pipe_pose/core/cycle_runner.hpp"
+#include "drill_pipe_pose/core/tool_joint.hpp"
 #include "drill_pipe_pose/ros/conversions.hpp"
 #include "drill_pipe_pose/ros/estimator_params.hpp"
 #include "drill_pipe_pose/ros/tf_source.hpp"
@@ -395,7 +396,7 @@ class PoseEstimatorNode {
   /// The other ends (several pipes at once), each under its instance id, grey; they fade out a
   /// few cycles after their last fit (lifetime) instead of being deleted.
   void otherEndMarkers(const CycleResult& r, const ros::Time& stamp,
-                       visualization_msgs::MarkerArray* ma) const {
+                       visualization_msgs::MarkerArray* ma) {
     for (const EndEstimate& est : r.others) {
       visualization_msgs::Marker m;
       m.header.stamp = stamp;
@@ -410,10 +411,39 @@ class PoseEstimatorNode {
       m.color.r = m.color.g = m.color.b = 0.7f;
       m.action = visualization_msgs::Marker::ADD;
       m.pose = tf2::toMsg(est.T_world_end);
+      setTypeMesh(est, &m);
       m.lifetime = ros::Duration(0.3);
       ma->markers.push_back(m);
       for (auto& extra : axisAndLabel(m, est)) ma->markers.push_back(std::move(extra));
     }
+  }
+
+  /// The end's marker as its published type's model: the type's profile revolved (24 facets),
+  /// as a triangle list in the end's frame; the 5" NC50 mesh file (models/<label>.stl) when the
+  /// end has no type or the type is not a candidate.
+  void setTypeMesh(const EndEstimate& est, visualization_msgs::Marker* m) {
+    const std::vector<PipeCandidate>& candidates = runner_.candidates();
+    const auto c = std::find_if(candidates.begin(), candidates.end(),
+                                [&](const PipeCandidate& p) { return p.name == est.type; });
+    if (est.type.empty() || c == candidates.end()) return;
+    const std::string key = est.type + " " + labelName(est.label);
+    auto it = type_meshes_.find(key);
+    if (it == type_meshes_.end()) {
+      const TriangleMesh mesh = revolveProfile(toolJointProfile(est.label, c->dims), 24);
+      std::vector<geometry_msgs::Point> points;
+      points.reserve(3 * mesh.triangles.size());
+      for (const Eigen::Vector3i& t : mesh.triangles)
+        for (int k = 0; k < 3; ++k) {
+          geometry_msgs::Point p;
+          const Eigen::Vector3f& v = mesh.vertices[t[k]];
+          p.x = v.x(), p.y = v.y(), p.z = v.z();
+          points.push_back(p);
+        }
+      it = type_meshes_.emplace(key, std::move(points)).first;
+    }
+    m->type = visualization_msgs::Marker::TRIANGLE_LIST;
+    m->mesh_resource.clear();
+    m->points = it->second;
   }
 
   void publishDebug(const CycleResult& r, const ros::Time& stamp,
@@ -441,6 +471,7 @@ class PoseEstimatorNode {
       if (r.ends[e].valid) {
         m.action = visualization_msgs::Marker::ADD;
         m.pose = tf2::toMsg(r.ends[e].T_world_end);
+        setTypeMesh(r.ends[e], &m);
       } else {
         m.action = visualization_msgs::Marker::DELETE;
       }
@@ -679,6 +710,8 @@ class PoseEstimatorNode {
   ros::WallTimer poll_timer_, diag_timer_;
   std::map<std::string, Counters> counters_;
   std::map<std::string, CameraDriftStatus> drift_;  ///< the drift watch's last status per camera
+  /// Per "<type> <label>": the type's model as a triangle list (setTypeMesh), made once.
+  std::map<std::string, std::vector<geometry_msgs::Point>> type_meshes_;
   double last_diag_wall_ = wallNow();
   double last_none_live_ = 0;  ///< [s] wall clock of the last poll with no camera live
   struct ClockJumps {

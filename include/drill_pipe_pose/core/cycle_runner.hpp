@@ -87,6 +87,8 @@ class CycleRunner {
 
   const FrameSynchronizer& sync() const { return sync_; }
   const EstimatorNodeConfig& config() const { return config_; }
+  /// The pipe types the estimator may give an end (pipe_types resolved to catalogue entries).
+  const std::vector<PipeCandidate>& candidates() const { return estimator_.config().candidates; }
   /// Each camera's depth calibration from config().rig (absent: none).
   const std::map<std::string, DepthCorrection>& depthCorrections() const {
     return depth_corrections_;
