@@ -31,7 +31,7 @@ OPTIONS = {
     "calibrate_rig": ["--observations", "--bag", "--config", "--image-topic", "--save-observations",
                       "--out", "--depth-scale", "--intrinsics", "--no-depth", "--plain",
                       "--min-placements", "--true-rig", "--report", "--no-weak-return-model",
-                      "--amplitude-topic"],
+                      "--amplitude-topic", "--no-weak-return-fit"],
     "bench_estimator": ["--method", "--max-cycles", "--work-zone", "--csv", "--label",
                         "--skip-camera", "--no-temporal", "--no-tracking", "--threads",
                         "--vote-fraction", "--box-reach", "--confirmations",

@@ -254,6 +254,10 @@ int main(int argc, char** argv) {
                "estimate each depth camera's scale too (an uncalibrated Kinect v2: ~2 %)");
   app.add_flag("--intrinsics", intrinsics, "estimate every camera's intrinsics too");
   app.add_flag("--no-depth", no_depth, "ignore depth samples (depth offsets stay 0)");
+  bool no_weak_return_fit = false;
+  app.add_flag("--no-weak-return-fit", no_weak_return_fit,
+               "keep the sensor's weak-return bias law for every camera: do not learn a camera's "
+               "own from the target's two prints (to compare with)");
   app.add_flag("--plain", plain,
                "plain least squares over every observation: no robust loss, no outlier pass "
                "(to compare with tools such as OpenCV's stereoCalibrate)");
@@ -274,6 +278,7 @@ int main(int argc, char** argv) {
   opt.estimate_intrinsics = intrinsics;
   opt.estimate_depth_offset = !no_depth;
   opt.robust = !plain;
+  opt.fit_weak_return = !no_weak_return_fit;
   try {
     const std::string source = bag_path.empty() ? obs_path : bag_path;
     const ObservationSet set = bag_path.empty() ? loadObservations(obs_path)
