@@ -296,6 +296,12 @@ TEST(WeakReturnFit, KeepsTheSensorsLawWhereThePrintsShowNoContrast) {
   const WeakReturnFit none = fitWeakReturnBias(twoPrints(0.0, 8, 0.005, 0.0, 6), law);
   EXPECT_TRUE(none.fitted) << none.note;
   EXPECT_NEAR(none.coeff, 0.0, 0.1 * law.bias_coeff);
+  // A camera within a few percent of the sensor's B keeps the sensor's law.
+  const WeakReturnFit same =
+      fitWeakReturnBias(twoPrints(1.05 * law.bias_coeff, 8, 0.005, 0.0, 8), law);
+  EXPECT_FALSE(same.fitted);
+  EXPECT_NE(same.note.find("of the sensor's, within 20 %"), std::string::npos) << same.note;
+  EXPECT_NEAR(same.coeff, 1.05 * law.bias_coeff, 0.05 * law.bias_coeff);
   // A bias that shrinks as the return weakens is not a weak-return bias.
   const WeakReturnFit wrong =
       fitWeakReturnBias(twoPrints(-law.bias_coeff, 8, 0.005, 0.0, 7), law);

@@ -126,6 +126,12 @@ WeakReturnFit fitWeakReturnBias(const std::vector<WeakReturnSample>& samples,
     why << "the sensor's law kept: B = " << B << " +- " << fit.coeff_sigma << " is known to "
         << std::lround(100 * fit.coeff_sigma / scale_of_b) << " % (at most "
         << std::lround(100 * options.max_relative_sigma) << " % needed)";
+  const double departure = std::abs(B - prior.bias_coeff);
+  if (why.str().empty() &&
+      departure <= std::max(3.0 * fit.coeff_sigma, options.min_departure * prior.bias_coeff))
+    why << "the sensor's law kept: B = " << B << " +- " << fit.coeff_sigma << " is "
+        << std::lround(100.0 * B / prior.bias_coeff) << " % of the sensor's, within "
+        << std::lround(100 * options.min_departure) << " % (or 3 of its errors) of it";
   if (why.str().empty() && B < 0) {  // zero within its noise: a sensor without the bias
     fit.coeff = 0.0;
     shifted.clear();
