@@ -147,14 +147,15 @@ class EstimatorReplay(unittest.TestCase):
                                            e.probabilities[list(e.candidates).index(e.type)], places=9)
         self.assertGreater(compared, 100, "too few cycles with both the status and pipe_end_types")
         # rviz: each valid end's marker is its published type's model (the type's profile
-        # revolved, a triangle list), not the one mesh file of the 5" NC50.
+        # revolved, written as an STL file), not the one mesh file of the 5" NC50.
         shown = [mk for ma in self.markers for mk in ma.markers
                  if mk.ns in ("box_end", "pin_end") and mk.action == Marker.ADD]
         self.assertGreater(len(shown), 50, f"too few end markers ({len(self.markers)} arrays)")
         for mk in shown:
-            self.assertEqual(mk.type, Marker.TRIANGLE_LIST, mk.ns)
-            self.assertEqual(len(mk.points) % 3, 0)
-            self.assertGreater(len(mk.points), 300, mk.ns)
+            self.assertEqual(mk.type, Marker.MESH_RESOURCE, mk.ns)
+            self.assertTrue(mk.mesh_resource.startswith("file://"), mk.mesh_resource)
+            self.assertTrue(mk.mesh_resource.endswith(f"5in_NC50_6.625od_{mk.ns}.stl"), mk.mesh_resource)
+            self.assertGreater(os.path.getsize(mk.mesh_resource[len("file://"):]), 10000)
         for label, e in last.items():
             self.assertEqual(e.type, "5in_NC50_6.625od", f"{label} (seed {SEED})")
             self.assertGreater(e.od_measurements, 10)

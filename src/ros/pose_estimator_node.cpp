@@ -20,6 +20,7 @@
 #include <visualization_msgs/MarkerArray.h>
 
 #include <algorithm>
+#include <filesystem>
 #include <array>
 #include <cstdio>
 #include <map>
@@ -418,32 +419,35 @@ class PoseEstimatorNode {
     }
   }
 
-  /// The end's marker as its published type's model: the type's profile revolved (24 facets),
-  /// as a triangle list in the end's frame; the 5" NC50 mesh file (models/<label>.stl) when the
-  /// end has no type or the type is not a candidate.
+  /// The end's marker as its published type's model: the type's profile revolved, written once
+  /// per type and label as an STL file under $ROS_HOME/drill_pipe_pose_models/ (file:// mesh
+  /// resource, lit as the package's own meshes); the 5" NC50 mesh file (models/<label>.stl) when
+  /// the end has no type, the type is not a candidate or the file cannot be written.
   void setTypeMesh(const EndEstimate& est, visualization_msgs::Marker* m) {
     const std::vector<PipeCandidate>& candidates = runner_.candidates();
     const auto c = std::find_if(candidates.begin(), candidates.end(),
                                 [&](const PipeCandidate& p) { return p.name == est.type; });
     if (est.type.empty() || c == candidates.end()) return;
-    const std::string key = est.type + " " + labelName(est.label);
+    const std::string key = est.type + "_" + labelName(est.label);
     auto it = type_meshes_.find(key);
     if (it == type_meshes_.end()) {
-      const TriangleMesh mesh = revolveProfile(toolJointProfile(est.label, c->dims), 24);
-      std::vector<geometry_msgs::Point> points;
-      points.reserve(3 * mesh.triangles.size());
-      for (const Eigen::Vector3i& t : mesh.triangles)
-        for (int k = 0; k < 3; ++k) {
-          geometry_msgs::Point p;
-          const Eigen::Vector3f& v = mesh.vertices[t[k]];
-          p.x = v.x(), p.y = v.y(), p.z = v.z();
-          points.push_back(p);
-        }
-      it = type_meshes_.emplace(key, std::move(points)).first;
+      const char* home = std::getenv("ROS_HOME");
+      const char* user = std::getenv("HOME");
+      const std::string dir = std::string(home ? home : (user ? std::string(user) + "/.ros" : "/tmp")) +
+                              "/drill_pipe_pose_models";
+      const std::string path = dir + "/" + key + ".stl";
+      std::string url;
+      try {
+        std::filesystem::create_directories(dir);
+        writeStl(revolveProfile(toolJointProfile(est.label, c->dims)), path);
+        url = "file://" + path;
+      } catch (const std::exception& e) {
+        ROS_WARN("pose_estimator: the model of %s for rviz cannot be written (%s): the 5\" NC50 "
+                 "mesh is shown for it", key.c_str(), e.what());
+      }
+      it = type_meshes_.emplace(key, url).first;
     }
-    m->type = visualization_msgs::Marker::TRIANGLE_LIST;
-    m->mesh_resource.clear();
-    m->points = it->second;
+    if (!it->second.empty()) m->mesh_resource = it->second;
   }
 
   void publishDebug(const CycleResult& r, const ros::Time& stamp,
@@ -710,8 +714,8 @@ class PoseEstimatorNode {
   ros::WallTimer poll_timer_, diag_timer_;
   std::map<std::string, Counters> counters_;
   std::map<std::string, CameraDriftStatus> drift_;  ///< the drift watch's last status per camera
-  /// Per "<type> <label>": the type's model as a triangle list (setTypeMesh), made once.
-  std::map<std::string, std::vector<geometry_msgs::Point>> type_meshes_;
+  /// Per "<type>_<label>": the file:// URL of the type's model (setTypeMesh; empty: not written).
+  std::map<std::string, std::string> type_meshes_;
   double last_diag_wall_ = wallNow();
   double last_none_live_ = 0;  ///< [s] wall clock of the last poll with no camera live
   struct ClockJumps {
