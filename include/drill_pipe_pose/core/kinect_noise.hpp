@@ -60,21 +60,22 @@ inline double amplitudeSigma(const AmplitudeModel& m, double a) {
   return std::sqrt(m.noise_floor * m.noise_floor + weak * weak);
 }
 
+/// The weak-return bias law's shape, max(a, a_min)^-p: the bias of amplitude a per unit of B.
+inline double weakReturnShape(const AmplitudeModel& m, double a) {
+  const double x = std::max(a, m.bias_min_amplitude);
+  if (m.bias_power == 4.0) {  // the fitted p, without std::pow (called per point and iteration)
+    const double x2 = x * x;
+    return 1.0 / (x2 * x2);
+  }
+  return std::pow(x, -m.bias_power);
+}
+
 /// Depth bias [m] (+ = farther) of a return of amplitude a, less the bias at `reference` (what a
 /// depth calibration on a target of that amplitude removed; 0: nothing removed):
 /// B (max(a, a_min)^-p - max(reference, a_min)^-p).
 inline double weakReturnBias(const AmplitudeModel& m, double a, double reference) {
-  // x^-p, with the fitted p = 4 without std::pow (called per point and iteration).
-  const auto inv_pow = [&m](double x) {
-    if (m.bias_power == 4.0) {
-      const double x2 = x * x;
-      return 1.0 / (x2 * x2);
-    }
-    return std::pow(x, -m.bias_power);
-  };
-  const double held = inv_pow(std::max(a, m.bias_min_amplitude));
-  const double ref = reference > 0 ? inv_pow(std::max(reference, m.bias_min_amplitude)) : 0.0;
-  return m.bias_coeff * (held - ref);
+  const double ref = reference > 0 ? weakReturnShape(m, reference) : 0.0;
+  return m.bias_coeff * (weakReturnShape(m, a) - ref);
 }
 
 }  // namespace drill_pipe_pose::kinect_v2

@@ -546,12 +546,10 @@ std::optional<ObservationSet> withCamerasOwnLaws(const ObservationSet& set,
   for (Observation& o : again.observations) {
     const auto d = delta.find(o.camera);
     if (d == delta.end()) continue;
+    const double floor_shape = kinect_v2::weakReturnShape(sensor, sensor.bias_min_amplitude);
     for (DepthSample& s : o.depth) {
       if (!(s.amplitude > 0)) continue;
-      // weakReturnBias is linear in B: B (h(a) - h(a_min)) per unit of B.
-      kinect_v2::AmplitudeModel unit = sensor;
-      unit.bias_coeff = 1.0;
-      s.z += d->second * kinect_v2::weakReturnBias(unit, s.amplitude, sensor.bias_min_amplitude);
+      s.z += d->second * (kinect_v2::weakReturnShape(sensor, s.amplitude) - floor_shape);
       changed = true;
     }
   }

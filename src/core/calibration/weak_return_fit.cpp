@@ -42,9 +42,7 @@ WeakReturnFit fitWeakReturnBias(const std::vector<WeakReturnSample>& samples,
                                 const WeakReturnFitOptions& options) {
   WeakReturnFit fit;
   fit.samples = static_cast<int>(samples.size());
-  const auto h = [&prior](double a) {
-    return std::pow(std::max(a, prior.bias_min_amplitude), -prior.bias_power);
-  };
+  const auto h = [&prior](double a) { return kinect_v2::weakReturnShape(prior, a); };
   const double h_ref = h(prior.bias_min_amplitude);
   std::vector<double> amplitudes;
   std::map<int, std::vector<const WeakReturnSample*>> by_group;

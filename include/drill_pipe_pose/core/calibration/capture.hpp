@@ -8,6 +8,7 @@
 
 #include "drill_pipe_pose/core/calibration/observations.hpp"
 #include "drill_pipe_pose/core/depth_image.hpp"
+#include "drill_pipe_pose/core/kinect_noise.hpp"
 
 namespace drill_pipe_pose::calibration {
 
@@ -36,7 +37,7 @@ struct CaptureOptions {
   double edge_margin = 0.01;
   /// [DN per 1/m^2] the IR image's digital numbers per unit of amplitude (a Kinect v2's:
   /// kinect_v2::kDnPerAmplitude; the estimator's noise/amplitude_scale).
-  double amplitude_scale = 40260.0;
+  double amplitude_scale = kinect_v2::kDnPerAmplitude;
 };
 
 /// The observation of `camera` at `placement` (empty `corners` when the target was not found).
