@@ -61,6 +61,7 @@ struct Candidate {
 /// Time [ms] one label's stages spent, summed over its instances.
 struct LabelTiming {
   double segmentation_ms = 0.0, registration_ms = 0.0;
+  double edges_ms = 0.0;  ///< of registration_ms: the scan along the axis on the edge pixels
 };
 
 using Clock = std::chrono::steady_clock;

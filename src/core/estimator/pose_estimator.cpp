@@ -1172,6 +1172,7 @@ CycleResult PoseEstimator::process(const std::vector<CameraInput>& inputs) {
   }
   result.timing.segmentation_ms = timing[0].segmentation_ms + timing[1].segmentation_ms;
   result.timing.registration_ms = timing[0].registration_ms + timing[1].registration_ms;
+  result.timing.edges_ms = timing[0].edges_ms + timing[1].edges_ms;
 
   choosePrimaryPair(&cand, &other_fits, state.types, config);
   const std::array<bool, kNumEnds> held = holdLabelFlips(&cand, &state.labels, stamp_ns, config);

@@ -37,6 +37,7 @@ ProfileModel::ProfileModel(EndLabel label, const ToolJointDimensions& dims) : la
     }
     edges_.push_back({Eigen::Vector2d(a.z, a.r), Eigen::Vector2d(b.z, b.r)});
     edge_r2_max_.push_back(std::max(a.r, b.r) * std::max(a.r, b.r));
+    r2_max_ = std::max(r2_max_, edge_r2_max_.back());
     surfaces_.push_back(RevolvedEdge::fromSegment(a.z, a.r, b.z, b.r));
   }
   // Distance grid and nearest-edge candidates per cell.
@@ -140,6 +141,11 @@ bool ProfileModel::rayHit(const Eigen::Vector3d& q, const Eigen::Vector3d& d, do
   // (RevolvedEdge, shared with the simulator's renderer).
   const RevolvedRay ray(q, d);
   const double qq = ray.oo, qd = ray.od, dd = ray.dd;
+  {
+    // A ray that never comes within the model's largest radius misses every edge.
+    const double sc = std::max(s_min, dd > 1e-15 ? -qd / dd : s_min);
+    if (qq + 2 * sc * qd + sc * sc * dd > r2_max_ + 1e-9) return false;
+  }
   double best = std::numeric_limits<double>::infinity();
   const Edge* hit = nullptr;
   for (size_t k_e = 0; k_e < edges_.size(); ++k_e) {

@@ -295,6 +295,42 @@ struct EstimatorConfig {
     double min_axial_contrast = -8.0;
   } free_space;
 
+  /// The position along the axis from the depth pixels around the end, read as the sensor reads
+  /// a depth step (edge_likelihood.hpp; docs/measurement_model.md): after the refinement, the
+  /// end is moved along its axis to where the pixels' likelihood is highest. The refinement's
+  /// points at the end face and rims are mixed or missing pixels, read behind the surface; this
+  /// is the stage that does not trust them.
+  struct Edges {
+    bool enabled = true;
+    /// [m] +- scan from the refinement's position (its bias on the design seeds 400-402 was
+    /// 2-11 mm at 6.5 m, below the pixel footprint of 18 mm), in 3 mm then 1 mm steps.
+    double scan_range = 0.018;
+    /// What each kind of pixel reads, as a prior worth prior_pixels pixels; the judged pixels'
+    /// own counts at the refinement's pose decide (a driver without an edge filter, a camera
+    /// that reads every step cleanly, the simulator's ideal profile).
+    /// P(no depth) beside a model step: the real Kinect v2's board silhouette (scripts/
+    /// sensor_check, docs/sensor_check.md): 1.0-1.2 of a crossing's 2 transition pixels invalid.
+    double step_invalid = 0.5;
+    /// P(no depth) on the model away from its steps: weak returns (none on the real board's
+    /// bright squares at 0.75-1.75 m; a few per cent on yellow paint at 6.5 m).
+    double surface_invalid = 0.05;
+    /// P(a pixel away from steps reads through the model, or a surface where it has none).
+    double wrong = 0.01;
+    double prior_pixels = 20.0;
+    /// The scan runs only where at least this share of the pixels beside the model's steps is
+    /// missing (and 3 times the share on the model away from them): a ToF sensor whose driver
+    /// drops edge pixels, as the real Kinect v2 does (half of them). Where the edges read mixed
+    /// but complete, the scan moved thesis_vertical's box end 3-5 mm further down than the
+    /// refinement (the simulator's edges before their fit to the real sensor: none dropped,
+    /// 35 % mixed; design seed 400). The fitted edges show 0.3, those 0.0 (design seeds 400-402).
+    double min_step_missing = 0.15;
+    /// [m] the judged region: from region_below under the end's top (the box's end face, the
+    /// pin's nose) along its axis to region_above beyond it, the model's radius across.
+    /// 0.03-0.15 below gave the same box ends on thesis_vertical's design seeds 400-402.
+    double region_below = 0.08;
+    double region_above = 0.03;
+  } edges;
+
   /// Depth noise model (Fankhauser et al. 2015, head-on): sigma = scale * (1.5 - 0.5 z + 0.3 z^2)
   /// [mm, z in m], at least min_sigma.
   struct Noise {

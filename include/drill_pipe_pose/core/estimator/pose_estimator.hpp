@@ -75,6 +75,7 @@ struct EndEstimate {
 
 struct CycleTiming {
   double cutout_ms = 0, fusion_ms = 0, segmentation_ms = 0, registration_ms = 0, total_ms = 0;
+  double edges_ms = 0;  ///< of registration_ms: the scans along the axis on the edge pixels
 };
 
 struct CycleResult {

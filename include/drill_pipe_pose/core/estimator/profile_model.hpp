@@ -44,6 +44,7 @@ class ProfileModel {
   EndLabel label_ = EndLabel::kBoxEnd;
   std::vector<Edge> edges_;
   std::vector<double> edge_r2_max_;  ///< per edge, its largest radius squared
+  double r2_max_ = 0.0;              ///< the largest of edge_r2_max_
   std::vector<RevolvedEdge> surfaces_;  ///< per edge, its surface of revolution
   double tong_length_ = 0.0, z_min_ = 0.0, z_max_ = 0.0;
   // Distance grid.

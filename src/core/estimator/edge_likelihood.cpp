@@ -1,0 +1,187 @@
+// The depth pixels around an end against a model pose rendered into each camera, with the
+// pixels beside the model's depth steps expected to be missing or mixed.
+
+#include "drill_pipe_pose/core/estimator/edge_likelihood.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+
+namespace drill_pipe_pose {
+
+namespace {
+
+/// The region [u0, u1) x [v0, v1) of the camera's delivered depth image that the end's region
+/// (end frame: |x|, |y| <= radius, z in [z_lo, z_hi]) projects into, grown by a pixel and cut to
+/// the camera's crop; false when it is not in front of the camera or too small to judge.
+bool endRegion(const CycleCamera& cam, const Eigen::Isometry3d& T_depth_end, double radius,
+               double z_lo, double z_hi, std::array<int, 4>* rect) {
+  double u_lo = 1e9, v_lo = 1e9, u_hi = -1e9, v_hi = -1e9;
+  for (double x : {-radius, radius})
+    for (double y : {-radius, radius})
+      for (double z : {z_lo, z_hi}) {
+        Eigen::Vector2d uv;
+        if (!cam.depth.project(T_depth_end * Eigen::Vector3d(x, y, z), &uv)) return false;
+        u_lo = std::min(u_lo, uv.x());
+        u_hi = std::max(u_hi, uv.x());
+        v_lo = std::min(v_lo, uv.y());
+        v_hi = std::max(v_hi, uv.y());
+      }
+  // Bounds far outside the image become ints without overflow (clamped first).
+  auto px = [](double x) { return static_cast<int>(std::clamp(x, -1e6, 1e6)); };
+  (*rect)[0] = std::max(cam.crop[0], px(std::floor(u_lo)) - 1);
+  (*rect)[1] = std::max(cam.crop[1], px(std::floor(v_lo)) - 1);
+  (*rect)[2] = std::min(cam.crop[2], px(std::ceil(u_hi)) + 2);
+  (*rect)[3] = std::min(cam.crop[3], px(std::ceil(v_hi)) + 2);
+  return (*rect)[2] - (*rect)[0] >= 3 && (*rect)[3] - (*rect)[1] >= 3;
+}
+
+}  // namespace
+
+std::vector<std::array<int, 4>> edgeRegions(const ProfileModel& model, double radius,
+                                            const Eigen::Isometry3d& T_world_end,
+                                            const std::vector<CycleCamera>& cameras,
+                                            const EstimatorConfig::Edges& edges, double reach) {
+  const double z_lo = model.zMax() - edges.region_below - reach;
+  const double z_hi = model.zMax() + edges.region_above + reach;
+  std::vector<std::array<int, 4>> rects(cameras.size(), {{0, 0, 0, 0}});
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    const Eigen::Isometry3d T_depth_end = cameras[c].T_world_depth.inverse() * T_world_end;
+    if (!endRegion(cameras[c], T_depth_end, radius, z_lo, z_hi, &rects[c]))
+      rects[c] = {{0, 0, 0, 0}};
+  }
+  return rects;
+}
+
+namespace {
+
+/// Calls visit(kind, outcome) for every judged pixel of `regions` (EdgeOutcomes' indices).
+template <typename Visit>
+void classifyPixels(const ProfileModel& model, const Eigen::Isometry3d& T_world_end,
+                    const std::vector<CycleCamera>& cameras,
+                    const std::vector<std::array<int, 4>>& regions,
+                    const EstimatorConfig::Noise& noise, double margin, Visit&& visit) {
+  std::vector<float> rendered, front;
+  std::vector<uint8_t> step;
+  for (size_t c = 0; c < cameras.size() && c < regions.size(); ++c) {
+    const CycleCamera& cam = cameras[c];
+    const auto [u0, v0, u1, v1] = regions[c];
+    if (u1 - u0 < 3 || v1 - v0 < 3) continue;
+    const int w = u1 - u0;
+    // The model's optical depth at each pixel centre of the region (NaN: the ray misses it).
+    rendered.assign(static_cast<size_t>(w) * (v1 - v0), std::numeric_limits<float>::quiet_NaN());
+    const Eigen::Isometry3d T_end_depth = T_world_end.inverse() * cam.T_world_depth;
+    const Eigen::Matrix3d R = T_end_depth.linear();
+    const Eigen::Vector3d eye = T_end_depth.translation();
+    for (int v = v0; v < v1; ++v)
+      for (int u = u0; u < u1; ++u) {
+        const Eigen::Vector3d ray = cam.depth.backProject(u, v, 1.0);
+        const double len = ray.norm();
+        double s;
+        Eigen::Vector2d zr, normal;
+        if (model.rayHit(eye, R * ray / len, 0.0, &s, &zr, &normal))
+          rendered[static_cast<size_t>(v - v0) * w + (u - u0)] = static_cast<float>(s / len);
+      }
+    const auto at = [&](int u, int v) {
+      return rendered[static_cast<size_t>(v - v0) * w + (u - u0)];
+    };
+    // Per pixel of the region less its border: beside a model step, and the front-most rendered
+    // depth of it and its four neighbours.
+    step.assign(rendered.size(), 0);
+    front.assign(rendered.size(), std::numeric_limits<float>::infinity());
+    for (int v = v0 + 1; v < v1 - 1; ++v)
+      for (int u = u0 + 1; u < u1 - 1; ++u) {
+        const size_t i = static_cast<size_t>(v - v0) * w + (u - u0);
+        const float zp = rendered[i];
+        const bool hit = zp == zp;
+        float f = hit ? zp : std::numeric_limits<float>::infinity();
+        const int nu[4] = {u - 1, u + 1, u, u}, nv[4] = {v, v, v - 1, v + 1};
+        for (int k = 0; k < 4; ++k) {
+          const float zn = at(nu[k], nv[k]);
+          const bool hit_n = zn == zn;
+          if (hit_n != hit || (hit && std::abs(zn - zp) > kEdgeStepJump)) step[i] = 1;
+          if (hit_n) f = std::min(f, zn);
+        }
+        front[i] = f;
+      }
+    for (int v = v0 + 1; v < v1 - 1; ++v)
+      for (int u = u0 + 1; u < u1 - 1; ++u) {
+        const size_t i = static_cast<size_t>(v - v0) * w + (u - u0);
+        const float zp = rendered[i];
+        const bool hit = zp == zp;
+        // Beside a step, the pixel whose own ray meets the front-most surface of the five and
+        // the one that sees past it; the rest, on the model or off it.
+        const int kind = !step[i] ? (hit ? EdgeOutcomes::kOn : EdgeOutcomes::kOff)
+                         : hit && zp <= front[i] + 0.5 * kEdgeStepJump ? EdgeOutcomes::kStepFront
+                                                                       : EdgeOutcomes::kStepBack;
+        const float zm = cam.image.depthAt(u, v);
+        if (!(zm == zm)) {
+          visit(kind, EdgeOutcomes::kMissing);
+          continue;
+        }
+        if (hit || step[i]) {
+          // Behind the (front-most) model surface by more than the noise: seen through it.
+          const double tol = std::max(margin, 3.0 * depthSigma(noise, front[i]));
+          visit(kind, zm > front[i] + tol ? EdgeOutcomes::kOther : EdgeOutcomes::kAsModelled);
+        } else {
+          // The background, or a surface where the model has none.
+          const Eigen::Vector3d q = T_end_depth * cam.depth.backProject(u, v, zm);
+          const double d = model.coarseDistance(q.z(), std::hypot(q.x(), q.y()));
+          const double tol = std::max(margin, 3.0 * depthSigma(noise, zm));
+          visit(kind, d < tol ? EdgeOutcomes::kOther : EdgeOutcomes::kAsModelled);
+        }
+      }
+  }
+}
+
+}  // namespace
+
+EdgeOutcomes estimateEdgeOutcomes(const ProfileModel& model, const Eigen::Isometry3d& T_world_end,
+                                  const std::vector<CycleCamera>& cameras,
+                                  const std::vector<std::array<int, 4>>& regions,
+                                  const EstimatorConfig::Edges& edges,
+                                  const EstimatorConfig::Noise& noise, double margin) {
+  // The prior, as pseudo-pixels: the real sensor's figures (edges.*), each kind's valid pixels
+  // split between as modelled and not as the configured figures say.
+  std::array<std::array<double, 3>, EdgeOutcomes::kKinds> n{};
+  const double w = edges.prior_pixels;
+  n[EdgeOutcomes::kOn] = {w * edges.surface_invalid, w * (1 - edges.surface_invalid - edges.wrong),
+                          w * edges.wrong};
+  n[EdgeOutcomes::kOff] = n[EdgeOutcomes::kOn];
+  n[EdgeOutcomes::kStepFront] = {w * edges.step_invalid, w * 0.5 * (1 - edges.step_invalid),
+                                 w * 0.5 * (1 - edges.step_invalid)};
+  n[EdgeOutcomes::kStepBack] = n[EdgeOutcomes::kStepFront];
+  std::array<std::array<double, 3>, EdgeOutcomes::kKinds> counted{};
+  classifyPixels(model, T_world_end, cameras, regions, noise, margin,
+                 [&](int kind, int outcome) { counted[kind][outcome] += 1.0; });
+  EdgeOutcomes out;
+  const auto share = [](const std::array<double, 3>& a, const std::array<double, 3>& b) {
+    const double all = a[0] + a[1] + a[2] + b[0] + b[1] + b[2];
+    return all > 0 ? (a[0] + b[0]) / all : 0.0;
+  };
+  out.step_missing =
+      share(counted[EdgeOutcomes::kStepFront], counted[EdgeOutcomes::kStepBack]);
+  out.on_missing = share(counted[EdgeOutcomes::kOn], {0, 0, 0});
+  for (int k = 0; k < EdgeOutcomes::kKinds; ++k)
+    for (int o = 0; o < 3; ++o) n[k][o] += counted[k][o];
+  for (int k = 0; k < EdgeOutcomes::kKinds; ++k) {
+    const double sum = n[k][0] + n[k][1] + n[k][2];
+    for (int o = 0; o < 3; ++o) out.nll[k][o] = -std::log(n[k][o] / sum);
+  }
+  return out;
+}
+
+double edgeNegLogLikelihood(const ProfileModel& model, const Eigen::Isometry3d& T_world_end,
+                            const std::vector<CycleCamera>& cameras,
+                            const std::vector<std::array<int, 4>>& regions,
+                            const EdgeOutcomes& outcomes, const EstimatorConfig::Noise& noise,
+                            double margin) {
+  double total = 0;
+  classifyPixels(model, T_world_end, cameras, regions, noise, margin,
+                 [&](int kind, int outcome) { total += outcomes.nll[kind][outcome]; });
+  return total;
+}
+
+}  // namespace drill_pipe_pose
