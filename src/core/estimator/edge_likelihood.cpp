@@ -40,52 +40,74 @@ bool endRegion(const CycleCamera& cam, const Eigen::Isometry3d& T_depth_end, dou
 
 }  // namespace
 
-std::vector<std::array<int, 4>> edgeRegions(const ProfileModel& model, double radius,
-                                            const Eigen::Isometry3d& T_world_end,
-                                            const std::vector<CycleCamera>& cameras,
-                                            const EstimatorConfig::Edges& edges, double reach) {
+std::vector<EdgeRegion> edgeRegions(const ProfileModel& model, double radius,
+                                    const Eigen::Isometry3d& T_world_end,
+                                    const std::vector<CycleCamera>& cameras,
+                                    const EstimatorConfig::Edges& edges, double reach) {
   const double z_lo = model.zMax() - edges.region_below - reach;
   const double z_hi = model.zMax() + edges.region_above + reach;
-  std::vector<std::array<int, 4>> rects(cameras.size(), {{0, 0, 0, 0}});
+  std::vector<EdgeRegion> regions(cameras.size());
   for (size_t c = 0; c < cameras.size(); ++c) {
     const Eigen::Isometry3d T_depth_end = cameras[c].T_world_depth.inverse() * T_world_end;
-    if (!endRegion(cameras[c], T_depth_end, radius, z_lo, z_hi, &rects[c]))
-      rects[c] = {{0, 0, 0, 0}};
+    if (!endRegion(cameras[c], T_depth_end, radius, z_lo, z_hi, &regions[c].rect))
+      regions[c].rect = {{0, 0, 0, 0}};
   }
-  return rects;
+  return regions;
 }
 
 namespace {
+
+/// The model's optical depth at each pixel centre of the camera's region (NaN: the ray misses
+/// it, or the region's mask leaves the pixel out).
+void renderRegion(const ProfileModel& model, const Eigen::Isometry3d& T_world_end,
+                  const CycleCamera& cam, const EdgeRegion& region, std::vector<float>* out) {
+  const auto [u0, v0, u1, v1] = region.rect;
+  const int w = u1 - u0;
+  out->assign(static_cast<size_t>(w) * (v1 - v0), std::numeric_limits<float>::quiet_NaN());
+  const Eigen::Isometry3d T_end_depth = T_world_end.inverse() * cam.T_world_depth;
+  const Eigen::Matrix3d R = T_end_depth.linear();
+  const Eigen::Vector3d eye = T_end_depth.translation();
+  for (int v = v0; v < v1; ++v)
+    for (int u = u0; u < u1; ++u) {
+      const size_t i = static_cast<size_t>(v - v0) * w + (u - u0);
+      if (!region.mask.empty() && !(region.mask[i] & EdgeRegion::kRendered)) {
+        (*out)[i] = region.fixed_depth[i];  // the same at every pose of the scan
+        continue;
+      }
+      const Eigen::Vector3d ray = cam.depth.backProject(u, v, 1.0);
+      const double len = ray.norm();
+      double s;
+      Eigen::Vector2d zr, normal;
+      if (model.rayHit(eye, R * ray / len, 0.0, &s, &zr, &normal))
+        (*out)[i] = static_cast<float>(s / len);
+    }
+}
+
+bool judgeable(const EdgeRegion& r) {
+  return r.rect[2] - r.rect[0] >= 3 && r.rect[3] - r.rect[1] >= 3;
+}
 
 /// Calls visit(kind, outcome) for every judged pixel of `regions` (EdgeOutcomes' indices).
 template <typename Visit>
 void classifyPixels(const ProfileModel& model, const Eigen::Isometry3d& T_world_end,
                     const std::vector<CycleCamera>& cameras,
-                    const std::vector<std::array<int, 4>>& regions,
-                    const EstimatorConfig::Noise& noise, double margin, Visit&& visit) {
+                    const std::vector<EdgeRegion>& regions, const EstimatorConfig::Noise& noise,
+                    double margin, Visit&& visit) {
   std::vector<float> rendered, front;
   std::vector<uint8_t> step;
   for (size_t c = 0; c < cameras.size() && c < regions.size(); ++c) {
     const CycleCamera& cam = cameras[c];
-    const auto [u0, v0, u1, v1] = regions[c];
-    if (u1 - u0 < 3 || v1 - v0 < 3) continue;
+    const EdgeRegion& region = regions[c];
+    if (!judgeable(region)) continue;
+    const auto [u0, v0, u1, v1] = region.rect;
     const int w = u1 - u0;
-    // The model's optical depth at each pixel centre of the region (NaN: the ray misses it).
-    rendered.assign(static_cast<size_t>(w) * (v1 - v0), std::numeric_limits<float>::quiet_NaN());
     const Eigen::Isometry3d T_end_depth = T_world_end.inverse() * cam.T_world_depth;
-    const Eigen::Matrix3d R = T_end_depth.linear();
-    const Eigen::Vector3d eye = T_end_depth.translation();
-    for (int v = v0; v < v1; ++v)
-      for (int u = u0; u < u1; ++u) {
-        const Eigen::Vector3d ray = cam.depth.backProject(u, v, 1.0);
-        const double len = ray.norm();
-        double s;
-        Eigen::Vector2d zr, normal;
-        if (model.rayHit(eye, R * ray / len, 0.0, &s, &zr, &normal))
-          rendered[static_cast<size_t>(v - v0) * w + (u - u0)] = static_cast<float>(s / len);
-      }
+    renderRegion(model, T_world_end, cam, region, &rendered);
     const auto at = [&](int u, int v) {
       return rendered[static_cast<size_t>(v - v0) * w + (u - u0)];
+    };
+    const auto judged = [&](size_t i) {
+      return region.mask.empty() || (region.mask[i] & EdgeRegion::kJudged);
     };
     // Per pixel of the region less its border: beside a model step, and the front-most rendered
     // depth of it and its four neighbours.
@@ -94,6 +116,7 @@ void classifyPixels(const ProfileModel& model, const Eigen::Isometry3d& T_world_
     for (int v = v0 + 1; v < v1 - 1; ++v)
       for (int u = u0 + 1; u < u1 - 1; ++u) {
         const size_t i = static_cast<size_t>(v - v0) * w + (u - u0);
+        if (!judged(i)) continue;
         const float zp = rendered[i];
         const bool hit = zp == zp;
         float f = hit ? zp : std::numeric_limits<float>::infinity();
@@ -109,6 +132,7 @@ void classifyPixels(const ProfileModel& model, const Eigen::Isometry3d& T_world_
     for (int v = v0 + 1; v < v1 - 1; ++v)
       for (int u = u0 + 1; u < u1 - 1; ++u) {
         const size_t i = static_cast<size_t>(v - v0) * w + (u - u0);
+        if (!judged(i)) continue;
         const float zp = rendered[i];
         const bool hit = zp == zp;
         // Beside a step, the pixel whose own ray meets the front-most surface of the five and
@@ -140,7 +164,7 @@ void classifyPixels(const ProfileModel& model, const Eigen::Isometry3d& T_world_
 
 EdgeOutcomes estimateEdgeOutcomes(const ProfileModel& model, const Eigen::Isometry3d& T_world_end,
                                   const std::vector<CycleCamera>& cameras,
-                                  const std::vector<std::array<int, 4>>& regions,
+                                  const std::vector<EdgeRegion>& regions,
                                   const EstimatorConfig::Edges& edges,
                                   const EstimatorConfig::Noise& noise, double margin) {
   // The prior, as pseudo-pixels: the real sensor's figures (edges.*), each kind's valid pixels
@@ -175,13 +199,64 @@ EdgeOutcomes estimateEdgeOutcomes(const ProfileModel& model, const Eigen::Isomet
 
 double edgeNegLogLikelihood(const ProfileModel& model, const Eigen::Isometry3d& T_world_end,
                             const std::vector<CycleCamera>& cameras,
-                            const std::vector<std::array<int, 4>>& regions,
+                            const std::vector<EdgeRegion>& regions,
                             const EdgeOutcomes& outcomes, const EstimatorConfig::Noise& noise,
                             double margin) {
   double total = 0;
   classifyPixels(model, T_world_end, cameras, regions, noise, margin,
                  [&](int kind, int outcome) { total += outcomes.nll[kind][outcome]; });
   return total;
+}
+
+void keepChangingPixels(const ProfileModel& model, const Eigen::Isometry3d& T_world_end,
+                        double reach, const std::vector<CycleCamera>& cameras,
+                        const EstimatorConfig::Noise& noise, double margin,
+                        std::vector<EdgeRegion>* regions) {
+  const Eigen::Vector3d z = T_world_end.linear().col(2);
+  std::array<std::vector<float>, 3> r;
+  for (size_t c = 0; c < cameras.size() && c < regions->size(); ++c) {
+    EdgeRegion& region = (*regions)[c];
+    region.mask.clear();
+    if (!judgeable(region)) continue;
+    const CycleCamera& cam = cameras[c];
+    const auto [u0, v0, u1, v1] = region.rect;
+    const int w = u1 - u0, h = v1 - v0;
+    for (int k = 0; k < 3; ++k) {
+      Eigen::Isometry3d T = T_world_end;
+      T.translation() += (k - 1) * reach * z;
+      renderRegion(model, T, cam, region, &r[k]);
+    }
+    // Changes within the scan: the rendered depth at either end of it differs from the middle's.
+    std::vector<uint8_t> changes(r[1].size(), 0);
+    const Eigen::Isometry3d T_end_depth = T_world_end.inverse() * cam.T_world_depth;
+    for (int v = v0; v < v1; ++v)
+      for (int u = u0; u < u1; ++u) {
+        const size_t i = static_cast<size_t>(v - v0) * w + (u - u0);
+        for (int k : {0, 2}) {
+          const bool a = r[k][i] == r[k][i], b = r[1][i] == r[1][i];
+          if (a != b || (a && std::abs(r[k][i] - r[1][i]) > 1e-3f)) changes[i] = 1;
+        }
+        // A reading near the model where it misses: its distance to the model moves with it.
+        const float zm = cam.image.depthAt(u, v);
+        if (!changes[i] && !(r[1][i] == r[1][i]) && zm == zm) {
+          const Eigen::Vector3d q = T_end_depth * cam.depth.backProject(u, v, zm);
+          const double d = model.coarseDistance(q.z(), std::hypot(q.x(), q.y()));
+          if (d < std::max(margin, 3.0 * depthSigma(noise, zm)) + reach + 0.01) changes[i] = 1;
+        }
+      }
+    // Rendered at every pose: the changing pixels (the others keep the middle's depth); judged:
+    // those and their 4-neighbours (a neighbour's change can change a pixel's kind).
+    region.fixed_depth = std::move(r[1]);
+    region.mask.assign(changes.size(), 0);
+    for (int v = 0; v < h; ++v)
+      for (int u = 0; u < w; ++u) {
+        const size_t i = static_cast<size_t>(v) * w + u;
+        if (changes[i]) region.mask[i] |= EdgeRegion::kRendered;
+        if (v < 1 || u < 1 || v >= h - 1 || u >= w - 1) continue;
+        if (changes[i] || changes[i - 1] || changes[i + 1] || changes[i - w] || changes[i + w])
+          region.mask[i] |= EdgeRegion::kJudged;
+      }
+  }
 }
 
 }  // namespace drill_pipe_pose

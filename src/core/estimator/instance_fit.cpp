@@ -361,15 +361,18 @@ void InstanceFitter::edgeScan(int m, ProfileFitResult* f) const {
   const double margin = config_.free_space.margin;
   // One region per camera for the whole scan (every pose judged on the same pixels), and what
   // its pixels do at the refinement's pose.
-  const auto regions = edgeRegions(model, ctx_.models.joint_radius[m] + 0.01,
-                                   canonicalPose(f->origin, f->z), ctx_.cams, ec, ec.scan_range);
-  const EdgeOutcomes outcomes = estimateEdgeOutcomes(
-      model, canonicalPose(f->origin, f->z), ctx_.cams, regions, ec, config_.noise, margin);
+  const Eigen::Isometry3d T0 = canonicalPose(f->origin, f->z);
+  auto regions =
+      edgeRegions(model, ctx_.models.joint_radius[m] + 0.01, T0, ctx_.cams, ec, ec.scan_range);
+  const EdgeOutcomes outcomes =
+      estimateEdgeOutcomes(model, T0, ctx_.cams, regions, ec, config_.noise, margin);
   // Only where the sensor drops its edge pixels: there the refinement's points at the end face
   // are the few it kept and mixed, and the missing ones say where the steps are.
   if (!(outcomes.step_missing >= ec.min_step_missing &&
         outcomes.step_missing >= 3.0 * outcomes.on_missing))
     return;
+  // The scan needs only the pixels that its moves can change.
+  keepChangingPixels(model, T0, ec.scan_range, ctx_.cams, config_.noise, margin, &regions);
   auto nll = [&](double d) {
     return edgeNegLogLikelihood(model, canonicalPose(f->origin + d * f->z, f->z), ctx_.cams,
                                 regions, outcomes, config_.noise, margin);
@@ -387,12 +390,16 @@ void InstanceFitter::edgeScan(int m, ProfileFitResult* f) const {
     }
     return ties ? sum / ties : lo;
   };
-  // Coarse (3 mm: a sixth of a depth pixel's footprint at 6.5 m) over the range, then 1 mm.
-  const double coarse = 0.003, fine = 0.001;
-  double best = 0, fine_best = 0;
-  const double d0 = scan(-ec.scan_range, ec.scan_range, coarse, &best);
-  const double d1 = scan(d0 - coarse + fine, d0 + coarse - fine, fine, &fine_best);
-  f->origin += (fine_best < best ? d1 : d0) * f->z;
+  // 6 mm steps over the range (a third of a depth pixel's footprint at 6.5 m), then 3 mm and
+  // 1 mm around the best so far.
+  double best = 0, d = scan(-ec.scan_range, ec.scan_range, 0.006, &best);
+  for (const double step : {0.003, 0.001}) {
+    double around = 0;
+    const double da = scan(d - step * (step > 0.002 ? 1 : 2), d + step * (step > 0.002 ? 1 : 2),
+                           step, &around);
+    if (around < best - 1e-9) best = around, d = da;
+  }
+  f->origin += d * f->z;
 }
 
 void InstanceFitter::scanAxialCovariance(ProfileFitResult* f) const {

@@ -54,7 +54,7 @@ class InstanceFitter {
   /// correspondences (free and locked along the axis; the better is polished on every point).
   bool refineWinner(int win);
   /// The position along the axis from the depth pixels around the end (edgeNegLogLikelihood):
-  /// f moved along its axis to the best of a scan over edges.scan_range (3 mm, then 1 mm).
+  /// f moved along its axis to the best of a scan over edges.scan_range (6 mm steps, then 3 and 1 mm).
   void edgeScan(int m, ProfileFitResult* f) const;
   /// With the position along the axis from the scan: the fit's axial variance replaced by the
   /// scan's (from cd_.axial_contrast), uncorrelated with the other parameters.

@@ -5,6 +5,7 @@
 
 #include <Eigen/Geometry>
 #include <array>
+#include <cstdint>
 #include <vector>
 
 #include "drill_pipe_pose/core/estimator/cutout.hpp"
@@ -18,15 +19,38 @@ namespace drill_pipe_pose {
 /// the real board's silhouette measures were taken at (docs/sensor_check.md).
 constexpr double kEdgeStepJump = 0.05;
 
+/// The pixels of one camera that the likelihood judges: a rectangle [u0, v0, u1, v1) of its
+/// delivered depth image (its border only rendered), and optionally which of them count.
+struct EdgeRegion {
+  std::array<int, 4> rect{{0, 0, 0, 0}};
+  enum Use : uint8_t { kRendered = 1, kJudged = 2 };
+  /// Per pixel of rect (row-major), bits of Use: rendered at each pose (else fixed_depth's), and
+  /// judged. Empty: every pixel rendered and judged.
+  std::vector<uint8_t> mask;
+  std::vector<float> fixed_depth;  ///< with a mask: the model's depth at the pixels not rendered
+};
+
 /// The region of each camera's depth image that the likelihood judges for an end near
 /// T_world_end: the end frame's box |x|, |y| <= radius, z from edges.region_below under the
 /// end's top (the box's end face, the pin's nose) to edges.region_above beyond it, grown by
 /// `reach` [m] along the axis, projected, a pixel added, cut to the crop. One
-/// scan judges every pose on the same pixels. {0, 0, 0, 0}: the camera does not see the end.
-std::vector<std::array<int, 4>> edgeRegions(const ProfileModel& model, double radius,
-                                            const Eigen::Isometry3d& T_world_end,
-                                            const std::vector<CycleCamera>& cameras,
-                                            const EstimatorConfig::Edges& edges, double reach);
+/// scan judges every pose on the same pixels. A rect {0, 0, 0, 0}: the camera does not see the
+/// end.
+std::vector<EdgeRegion> edgeRegions(const ProfileModel& model, double radius,
+                                    const Eigen::Isometry3d& T_world_end,
+                                    const std::vector<CycleCamera>& cameras,
+                                    const EstimatorConfig::Edges& edges, double reach);
+
+/// Masks each region for a scan of the model up to +-`reach` [m] along its axis from
+/// T_world_end: a pixel whose rendered depth is the same at either end of the move as in the
+/// middle keeps that depth (a joint's cylinders slide along their own surface), and only the
+/// pixels whose kind or outcome can change are judged (it or a 4-neighbour changes, or it reads a
+/// surface near the model where the model misses it). The others add the same to every pose's
+/// likelihood: the scan's best pose is the same without them.
+void keepChangingPixels(const ProfileModel& model, const Eigen::Isometry3d& T_world_end,
+                        double reach, const std::vector<CycleCamera>& cameras,
+                        const EstimatorConfig::Noise& noise, double margin,
+                        std::vector<EdgeRegion>* regions);
 
 /// What the judged pixels of each kind read, as negative log-probabilities. The kinds:
 /// - kOn: on the model away from its steps (as modelled: on the surface or in front of it, an
@@ -53,7 +77,7 @@ struct EdgeOutcomes {
 /// driver's edge filter, the scene's materials), not assumed.
 EdgeOutcomes estimateEdgeOutcomes(const ProfileModel& model, const Eigen::Isometry3d& T_world_end,
                                   const std::vector<CycleCamera>& cameras,
-                                  const std::vector<std::array<int, 4>>& regions,
+                                  const std::vector<EdgeRegion>& regions,
                                   const EstimatorConfig::Edges& edges,
                                   const EstimatorConfig::Noise& noise, double margin);
 
@@ -62,7 +86,7 @@ EdgeOutcomes estimateEdgeOutcomes(const ProfileModel& model, const Eigen::Isomet
 /// region, each pixel's kind and outcome (EdgeOutcomes) priced by `outcomes`.
 double edgeNegLogLikelihood(const ProfileModel& model, const Eigen::Isometry3d& T_world_end,
                             const std::vector<CycleCamera>& cameras,
-                            const std::vector<std::array<int, 4>>& regions,
+                            const std::vector<EdgeRegion>& regions,
                             const EdgeOutcomes& outcomes, const EstimatorConfig::Noise& noise,
                             double margin);
 

@@ -303,7 +303,7 @@ struct EstimatorConfig {
   struct Edges {
     bool enabled = true;
     /// [m] +- scan from the refinement's position (its bias on the design seeds 400-402 was
-    /// 2-11 mm at 6.5 m, below the pixel footprint of 18 mm), in 3 mm then 1 mm steps.
+    /// 2-11 mm at 6.5 m, below the pixel footprint of 18 mm), in 6 mm, then 3 and 1 mm steps.
     double scan_range = 0.018;
     /// What each kind of pixel reads, as a prior worth prior_pixels pixels; the judged pixels'
     /// own counts at the refinement's pose decide (a driver without an edge filter, a camera
