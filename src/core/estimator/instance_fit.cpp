@@ -5,6 +5,7 @@
 #include <future>
 #include <limits>
 #include <sstream>
+#include <utility>
 
 #include "drill_pipe_pose/core/estimator/covariance.hpp"
 #include "drill_pipe_pose/core/estimator/edge_likelihood.hpp"
@@ -390,13 +391,12 @@ void InstanceFitter::edgeScan(int m, ProfileFitResult* f) const {
     }
     return ties ? sum / ties : lo;
   };
-  // 6 mm steps over the range (a third of a depth pixel's footprint at 6.5 m), then 3 mm and
-  // 1 mm around the best so far.
+  // 6 mm steps over the range (a third of a depth pixel's footprint at 6.5 m), then 3 mm steps
+  // over +-3 mm and 1 mm steps over +-2 mm around the best so far.
   double best = 0, d = scan(-ec.scan_range, ec.scan_range, 0.006, &best);
-  for (const double step : {0.003, 0.001}) {
+  for (const auto& [step, half_width] : {std::pair{0.003, 0.003}, std::pair{0.001, 0.002}}) {
     double around = 0;
-    const double da = scan(d - step * (step > 0.002 ? 1 : 2), d + step * (step > 0.002 ? 1 : 2),
-                           step, &around);
+    const double da = scan(d - half_width, d + half_width, step, &around);
     if (around < best - 1e-9) best = around, d = da;
   }
   f->origin += d * f->z;
