@@ -256,8 +256,8 @@ TEST(EstimatorOnSimulator, CroppedDepthGivesTheSamePosesAsFull) {
 // The edge model fitted to a real board's silhouette (every edge pixel invalid or mixed, the
 // mixed ones kept near the brighter return) cost the box end 7.5 mm mean on this seed (5.4 mm of
 // it along the axis, downwards) and 5.7 mm along-axis spread, 0.44 deg, before the edge scan
-// (edges/*: the end moved along its axis to its pixels' likelihood). With it: 4.3 mm mean (1.3 mm
-// along the axis), 3.9 mm spread, 0.40 deg. That run asserts the box end within 6 mm mean, 5 mm
+// (edges/*: the end moved along its axis to its pixels' likelihood). With it: 4.2 mm mean (1.4 mm
+// along the axis), 3.8 mm spread, 0.40 deg. That run asserts the box end within 6 mm mean, 5 mm
 // spread, 0.6 deg, so that losing the scan's gain shows (docs/results.md has the held-out
 // figures); on the edges before the fit the scan does not run (none of their edge pixels drop).
 TEST(EstimatorOnSimulator, ThesisVerticalErrorTargetsHoldOnASecondSeed) {
