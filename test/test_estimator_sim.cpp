@@ -259,7 +259,8 @@ TEST(EstimatorOnSimulator, CroppedDepthGivesTheSamePosesAsFull) {
 // (edges/*: the end moved along its axis to its pixels' likelihood). With it: 4.2 mm mean (1.4 mm
 // along the axis), 3.8 mm spread, 0.40 deg. That run asserts the box end within 6 mm mean, 5 mm
 // spread, 0.6 deg, so that losing the scan's gain shows (docs/results.md has the held-out
-// figures); on the edges before the fit the scan does not run (none of their edge pixels drop).
+// figures); on the edges before the fit the scan does not run (their steps lose 2-26 % of their
+// pixels, below edges/min_step_missing).
 TEST(EstimatorOnSimulator, ThesisVerticalErrorTargetsHoldOnASecondSeed) {
   for (const int model_index : {0, 1, 2}) {
     const bool fit = model_index > 0, edges_refit = model_index == 2;
