@@ -126,8 +126,12 @@ double ProfileModel::distance(double z, double r, Eigen::Vector2d* grad) const {
 }
 
 float ProfileModel::coarseDistance(double z, double r) const {
-  const int i = std::clamp(static_cast<int>(std::floor((z - g_z0_) / g_res_ + 0.5)), 0, g_nz_ - 1);
-  const int j = std::clamp(static_cast<int>(std::floor((r - g_r0_) / g_res_ + 0.5)), 0, g_nr_ - 1);
+  if (!std::isfinite(z) || !std::isfinite(r)) return std::numeric_limits<float>::infinity();
+  // Clamped before the conversion: a point far off the grid (a wild depth) stays defined.
+  const int i = static_cast<int>(
+      std::clamp(std::floor((z - g_z0_) / g_res_ + 0.5), 0.0, static_cast<double>(g_nz_ - 1)));
+  const int j = static_cast<int>(
+      std::clamp(std::floor((r - g_r0_) / g_res_ + 0.5), 0.0, static_cast<double>(g_nr_ - 1)));
   const float d = grid_[static_cast<size_t>(i) * g_nr_ + j];
   // Outside the grid: add the distance to it (never smaller than the truth by much).
   const double dz = std::max(0.0, std::max(g_z0_ - z, z - (g_z0_ + (g_nz_ - 1) * g_res_)));
