@@ -93,8 +93,7 @@ void classifyPixels(const ProfileModel& model, const Eigen::Isometry3d& T_world_
                     const std::vector<CycleCamera>& cameras,
                     const std::vector<EdgeRegion>& regions, const EstimatorConfig::Noise& noise,
                     double margin, Visit&& visit) {
-  std::vector<float> rendered, front;
-  std::vector<uint8_t> step;
+  std::vector<float> rendered;
   for (size_t c = 0; c < cameras.size() && c < regions.size(); ++c) {
     const CycleCamera& cam = cameras[c];
     const EdgeRegion& region = regions[c];
@@ -109,46 +108,37 @@ void classifyPixels(const ProfileModel& model, const Eigen::Isometry3d& T_world_
     const auto judged = [&](size_t i) {
       return region.mask.empty() || (region.mask[i] & EdgeRegion::kJudged);
     };
-    // Per pixel of the region less its border: beside a model step, and the front-most rendered
-    // depth of it and its four neighbours.
-    step.assign(rendered.size(), 0);
-    front.assign(rendered.size(), std::numeric_limits<float>::infinity());
     for (int v = v0 + 1; v < v1 - 1; ++v)
       for (int u = u0 + 1; u < u1 - 1; ++u) {
         const size_t i = static_cast<size_t>(v - v0) * w + (u - u0);
         if (!judged(i)) continue;
         const float zp = rendered[i];
         const bool hit = zp == zp;
-        float f = hit ? zp : std::numeric_limits<float>::infinity();
+        // Beside a model step, and the front-most rendered depth of the pixel and its four
+        // neighbours.
+        bool step = false;
+        float front = hit ? zp : std::numeric_limits<float>::infinity();
         const int nu[4] = {u - 1, u + 1, u, u}, nv[4] = {v, v, v - 1, v + 1};
         for (int k = 0; k < 4; ++k) {
           const float zn = at(nu[k], nv[k]);
           const bool hit_n = zn == zn;
-          if (hit_n != hit || (hit && std::abs(zn - zp) > kEdgeStepJump)) step[i] = 1;
-          if (hit_n) f = std::min(f, zn);
+          if (hit_n != hit || (hit && std::abs(zn - zp) > kEdgeStepJump)) step = true;
+          if (hit_n) front = std::min(front, zn);
         }
-        front[i] = f;
-      }
-    for (int v = v0 + 1; v < v1 - 1; ++v)
-      for (int u = u0 + 1; u < u1 - 1; ++u) {
-        const size_t i = static_cast<size_t>(v - v0) * w + (u - u0);
-        if (!judged(i)) continue;
-        const float zp = rendered[i];
-        const bool hit = zp == zp;
         // Beside a step, the pixel whose own ray meets the front-most surface of the five and
         // the one that sees past it; the rest, on the model or off it.
-        const int kind = !step[i] ? (hit ? EdgeOutcomes::kOn : EdgeOutcomes::kOff)
-                         : hit && zp <= front[i] + 0.5 * kEdgeStepJump ? EdgeOutcomes::kStepFront
+        const int kind = !step ? (hit ? EdgeOutcomes::kOn : EdgeOutcomes::kOff)
+                         : hit && zp <= front + 0.5 * kEdgeStepJump ? EdgeOutcomes::kStepFront
                                                                        : EdgeOutcomes::kStepBack;
         const float zm = cam.image.depthAt(u, v);
         if (!(zm == zm)) {
           visit(kind, EdgeOutcomes::kMissing);
           continue;
         }
-        if (hit || step[i]) {
+        if (hit || step) {
           // Behind the (front-most) model surface by more than the noise: seen through it.
-          const double tol = std::max(margin, 3.0 * depthSigma(noise, front[i]));
-          visit(kind, zm > front[i] + tol ? EdgeOutcomes::kOther : EdgeOutcomes::kAsModelled);
+          const double tol = std::max(margin, 3.0 * depthSigma(noise, front));
+          visit(kind, zm > front + tol ? EdgeOutcomes::kOther : EdgeOutcomes::kAsModelled);
         } else {
           // The background, or a surface where the model has none.
           const Eigen::Vector3d q = T_end_depth * cam.depth.backProject(u, v, zm);
