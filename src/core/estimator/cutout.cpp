@@ -47,6 +47,7 @@ CycleCamera makeCycleCamera(const SensorFrameData& frame, const Eigen::Isometry3
                             const DepthCorrection& correction) {
   CycleCamera cam;
   cam.name = frame.camera;
+  cam.stamp_ns = frame.stamp_ns;
   const std::string& n = frame.camera;
   cam.depth = PinholeCamera::fromCameraInfo(frame.depth_info, n + " depth_info");
   cam.color = PinholeCamera::fromCameraInfo(frame.color_info, n + " color_info");

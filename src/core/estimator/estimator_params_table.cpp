@@ -264,6 +264,8 @@ ParamTable<C> freeSpaceRows() {
         "weight of the edges/* probabilities against the pixels' own counts"),
       P("edges/min_step_missing", edges.min_step_missing, "", between(0, 1),
         "the scan runs where at least this share of the pixels beside steps is missing"),
+      P("edges/max_motion", edges.max_motion, "m", between(0, 1),
+        "the scan is skipped where the end moves more than this within the cycle's frames"),
   };
 }
 

@@ -126,6 +126,14 @@ Candidate InstanceFitter::fit(const Track& tr, bool follow_track, LabelTiming* t
     cd_.has_support = tr.has_support;
     cd_.support_z = tr.support_z;
   }
+  // How far the end moves between the cycle's first and last frame: unsynchronised cameras see
+  // a moving end at different places, and the edge scan reads their pixels as one pose.
+  if (tr.recent(ctx_.stamp_ns, trc.max_gap) && !ctx_.cams.empty()) {
+    const auto [first, last] = std::minmax_element(
+        ctx_.cams.begin(), ctx_.cams.end(),
+        [](const CycleCamera& a, const CycleCamera& b) { return a.stamp_ns < b.stamp_ns; });
+    motion_ = tr.mean_velocity.norm() * static_cast<double>(last->stamp_ns - first->stamp_ns) * 1e-9;
+  }
   if (cd_.tracked) followTrack(tr, pred);
   if (!cd_.tracked) {
     AxisFitResult axis;
@@ -372,6 +380,8 @@ void InstanceFitter::edgeScan(int m, ProfileFitResult* f) const {
   if (!(outcomes.step_missing >= ec.min_step_missing &&
         outcomes.step_missing >= 3.0 * outcomes.on_missing))
     return;
+  // Nor where the end moves by more than edges.max_motion within the cycle's frames.
+  if (motion_ > ec.max_motion) return;
   // The scan needs only the pixels that its moves can change.
   keepChangingPixels(model, T0, ec.scan_range, ctx_.cams, config_.noise, margin, &regions);
   auto nll = [&](double d) {

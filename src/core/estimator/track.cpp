@@ -27,7 +27,18 @@ void Track::follow(int64_t t, const TrackedFit& fit, double max_gap, double max_
   const double g = gap(t);
   const bool continuing = continues(t, max_gap) && model == fit.model && z.dot(fit.z) > 0 &&
                           (fit.origin - predict(t)).norm() <= max_offset;
+  // The mean velocity also survives cycles without a fit (a moving end's fit is rejected now
+  // and then): the same end, as predicted, within max_gap.
+  const bool resumed = recent(t, max_gap) && model == fit.model && z.dot(fit.z) > 0 &&
+                       (fit.origin - predict(t)).norm() <= max_offset;
   velocity = continuing ? Eigen::Vector3d((fit.origin - origin) / g) : Eigen::Vector3d::Zero();
+  if (resumed) {
+    Eigen::Vector3d v = (fit.origin - origin) / g;
+    if (v.norm() > kMeanVelocityCap) v *= kMeanVelocityCap / v.norm();
+    mean_velocity += kMeanVelocityWeight * (v - mean_velocity);
+  } else {
+    mean_velocity.setZero();
+  }
   cycles = fit.tracked ? cycles + 1 : 1;
   if (!fit.tracked) direction_margin = fit.direction_margin;
   valid = true;

@@ -26,6 +26,7 @@ struct CloudPoint {
 /// A validated camera of one cycle: models, transforms, boxes (already confidence-filtered).
 struct CycleCamera {
   std::string name;
+  int64_t stamp_ns = 0;  ///< the frame's capture stamp (SensorFrameData::stamp_ns)
   PinholeCamera depth;
   PinholeCamera color;
   DepthImage image;

@@ -328,6 +328,13 @@ struct EstimatorConfig {
     /// (100 cycles each): those edges 0.02-0.26 (10th-90th percentile; weak returns at grazing
     /// steps), the fitted edges 0.37-0.57 (cluttered's box end down to 0.27).
     double min_step_missing = 0.3;
+    /// [m] nor where the end moves by more than this between the cycle's earliest and latest
+    /// camera frame (its track's mean speed times their stamps' spread): the scan judges every
+    /// camera's pixels at one pose. The moving scene's hoisted pin end (0.2 m/s, 30 Hz cameras
+    /// out of step: up to 6.6 mm) read 5.0-6.7 mm fresh median with the scan, 3.0-4.1 without
+    /// (held-out seeds 410-412), and 3.4 with the scan on synchronised cameras (design seed
+    /// 400). A third of a depth pixel's footprint at 6.5 m; not tuned.
+    double max_motion = 0.002;
     /// [m] the judged region: from region_below under the end's top (the box's end face, the
     /// pin's nose) along its axis to region_above beyond it, the model's radius across.
     /// 0.03-0.15 below gave the same box ends on thesis_vertical's design seeds 400-402.
