@@ -163,5 +163,34 @@ TEST(EdgeLikelihood, ACameraThatDoesNotSeeTheEndIsLeftOut) {
   EXPECT_NEAR(scene.bestOffset(0.0), 0.0, 0.0015);
 }
 
+TEST(EdgeLikelihood, EachCameraSaysWhetherItsPixelsReadAsEdges) {
+  // Four cameras whose edge pixels are dropped or mixed; the first one's view instead loses a
+  // third of all its pixels alike (something dark in front of the end): its shares say so.
+  Scene scene(true, 21);
+  CycleCamera& cam = scene.cams[0];
+  const std::vector<float> z = render(cam, scene.model, scene.T_world_end);
+  std::mt19937 rng(21);
+  std::uniform_real_distribution<float> u01(0.0f, 1.0f);
+  for (int v = 0; v < kH; ++v)
+    for (int u = 0; u < kW; ++u)
+      cam.image.setDepth(u, v, u01(rng) < 0.33f ? std::numeric_limits<float>::quiet_NaN()
+                                                : z[static_cast<size_t>(v) * kW + u]);
+  EdgeOutcomes out;
+  scene.bestOffset(0.0, &out);
+  ASSERT_EQ(out.camera_pixels.size(), 4u);
+  for (size_t c = 0; c < 4; ++c) {
+    SCOPED_TRACE("seed 21, camera " + std::to_string(c));
+    EXPECT_GT(out.camera_pixels[c], 50);
+    const double step = out.camera_step_missing[c], on = out.camera_on_missing[c];
+    if (c == 0) {
+      EXPECT_LT(step, 3.0 * on);
+      EXPECT_GT(on, 0.2);
+    } else {
+      EXPECT_GT(step, 0.3);
+      EXPECT_LT(on, 0.1);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace drill_pipe_pose

@@ -92,7 +92,7 @@ template <typename Visit>
 void classifyPixels(const ProfileModel& model, const Eigen::Isometry3d& T_world_end,
                     const std::vector<CycleCamera>& cameras,
                     const std::vector<EdgeRegion>& regions, const EstimatorConfig::Noise& noise,
-                    double margin, Visit&& visit) {
+                    double margin, Visit&& visit) {  // visit(camera, kind, outcome)
   std::vector<float> rendered;
   for (size_t c = 0; c < cameras.size() && c < regions.size(); ++c) {
     const CycleCamera& cam = cameras[c];
@@ -132,19 +132,19 @@ void classifyPixels(const ProfileModel& model, const Eigen::Isometry3d& T_world_
                                                                        : EdgeOutcomes::kStepBack;
         const float zm = cam.image.depthAt(u, v);
         if (!(zm == zm)) {
-          visit(kind, EdgeOutcomes::kMissing);
+          visit(c, kind, EdgeOutcomes::kMissing);
           continue;
         }
         if (hit || step) {
           // Behind the (front-most) model surface by more than the noise: seen through it.
           const double tol = std::max(margin, 3.0 * depthSigma(noise, front));
-          visit(kind, zm > front + tol ? EdgeOutcomes::kOther : EdgeOutcomes::kAsModelled);
+          visit(c, kind, zm > front + tol ? EdgeOutcomes::kOther : EdgeOutcomes::kAsModelled);
         } else {
           // The background, or a surface where the model has none.
           const Eigen::Vector3d q = T_end_depth * cam.depth.backProject(u, v, zm);
           const double d = model.coarseDistance(q.z(), std::hypot(q.x(), q.y()));
           const double tol = std::max(margin, 3.0 * depthSigma(noise, zm));
-          visit(kind, d < tol ? EdgeOutcomes::kOther : EdgeOutcomes::kAsModelled);
+          visit(c, kind, d < tol ? EdgeOutcomes::kOther : EdgeOutcomes::kAsModelled);
         }
       }
   }
@@ -168,8 +168,20 @@ EdgeOutcomes estimateEdgeOutcomes(const ProfileModel& model, const Eigen::Isomet
                                  w * 0.5 * (1 - edges.step_invalid)};
   n[EdgeOutcomes::kStepBack] = n[EdgeOutcomes::kStepFront];
   std::array<std::array<double, 3>, EdgeOutcomes::kKinds> counted{};
+  std::vector<std::array<double, 4>> per_camera(regions.size(), {0, 0, 0, 0});
+  std::vector<int> camera_pixels(regions.size(), 0);
   classifyPixels(model, T_world_end, cameras, regions, noise, margin,
-                 [&](int kind, int outcome) { counted[kind][outcome] += 1.0; });
+                 [&](size_t c, int kind, int outcome) {
+                   counted[kind][outcome] += 1.0;
+                   ++camera_pixels[c];
+                   // Per camera: [step pixels, of them missing, on-model pixels, of them missing].
+                   auto& pc = per_camera[c];
+                   const bool step =
+                       kind == EdgeOutcomes::kStepFront || kind == EdgeOutcomes::kStepBack;
+                   const bool missing = outcome == EdgeOutcomes::kMissing;
+                   if (step) pc[0] += 1, pc[1] += missing;
+                   if (kind == EdgeOutcomes::kOn) pc[2] += 1, pc[3] += missing;
+                 });
   EdgeOutcomes out;
   const auto share = [](const std::array<double, 3>& a, const std::array<double, 3>& b) {
     const double all = a[0] + a[1] + a[2] + b[0] + b[1] + b[2];
@@ -178,6 +190,12 @@ EdgeOutcomes estimateEdgeOutcomes(const ProfileModel& model, const Eigen::Isomet
   out.step_missing =
       share(counted[EdgeOutcomes::kStepFront], counted[EdgeOutcomes::kStepBack]);
   out.on_missing = share(counted[EdgeOutcomes::kOn], {0, 0, 0});
+  for (size_t c = 0; c < per_camera.size(); ++c) {
+    const auto& pc = per_camera[c];
+    out.camera_pixels.push_back(camera_pixels[c]);
+    out.camera_step_missing.push_back(pc[0] > 0 ? pc[1] / pc[0] : 0.0);
+    out.camera_on_missing.push_back(pc[2] > 0 ? pc[3] / pc[2] : 0.0);
+  }
   for (int k = 0; k < EdgeOutcomes::kKinds; ++k)
     for (int o = 0; o < 3; ++o) n[k][o] += counted[k][o];
   for (int k = 0; k < EdgeOutcomes::kKinds; ++k) {
@@ -194,7 +212,7 @@ double edgeNegLogLikelihood(const ProfileModel& model, const Eigen::Isometry3d& 
                             double margin) {
   double total = 0;
   classifyPixels(model, T_world_end, cameras, regions, noise, margin,
-                 [&](int kind, int outcome) { total += outcomes.nll[kind][outcome]; });
+                 [&](size_t, int kind, int outcome) { total += outcomes.nll[kind][outcome]; });
   return total;
 }
 

@@ -264,6 +264,10 @@ ParamTable<C> freeSpaceRows() {
         "weight of the edges/* probabilities against the pixels' own counts"),
       P("edges/min_step_missing", edges.min_step_missing, "", between(0, 1),
         "the scan runs where at least this share of the pixels beside steps is missing"),
+      P("edges/camera_min_step_missing", edges.camera_min_step_missing, "", between(0, 1),
+        "a camera whose step pixels are missing less than this share is left out of the scan"),
+      P("edges/min_cameras", edges.min_cameras, "", between(1, 64),
+        "cameras the scan needs where some are left out"),
       P("edges/max_motion", edges.max_motion, "m", between(0, 1),
         "the scan is skipped where the end moves more than this within the cycle's frames"),
   };

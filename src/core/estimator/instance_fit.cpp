@@ -373,15 +373,34 @@ void InstanceFitter::edgeScan(int m, ProfileFitResult* f) const {
   const Eigen::Isometry3d T0 = canonicalPose(f->origin, f->z);
   auto regions =
       edgeRegions(model, ctx_.models.joint_radius[m] + 0.01, T0, ctx_.cams, ec, ec.scan_range);
-  const EdgeOutcomes outcomes =
+  // Not where the end moves by more than edges.max_motion within the cycle's frames.
+  if (motion_ > ec.max_motion) return;
+  EdgeOutcomes outcomes =
       estimateEdgeOutcomes(model, T0, ctx_.cams, regions, ec, config_.noise, margin);
+  // A camera whose own pixels do not read as a ToF sensor's edges (its step pixels missing less
+  // than edges.camera_min_step_missing, or less than 3 times its on-model ones: an occluder or a
+  // dark surface in front of the end) is left out of the scan, if edges.min_cameras remain.
+  int kept = 0;
+  bool left_out = false;
+  for (size_t c = 0; c < regions.size(); ++c) {
+    if (outcomes.camera_pixels[c] == 0) continue;
+    const double sm = outcomes.camera_step_missing[c], om = outcomes.camera_on_missing[c];
+    if (sm >= ec.camera_min_step_missing && sm >= 3.0 * om) {
+      ++kept;
+    } else {
+      regions[c] = EdgeRegion();
+      left_out = true;
+    }
+  }
+  if (left_out) {
+    if (kept < ec.min_cameras) return;
+    outcomes = estimateEdgeOutcomes(model, T0, ctx_.cams, regions, ec, config_.noise, margin);
+  }
   // Only where the sensor drops its edge pixels: there the refinement's points at the end face
   // are the few it kept and mixed, and the missing ones say where the steps are.
   if (!(outcomes.step_missing >= ec.min_step_missing &&
         outcomes.step_missing >= 3.0 * outcomes.on_missing))
     return;
-  // Nor where the end moves by more than edges.max_motion within the cycle's frames.
-  if (motion_ > ec.max_motion) return;
   // The scan needs only the pixels that its moves can change.
   keepChangingPixels(model, T0, ec.scan_range, ctx_.cams, config_.noise, margin, &regions);
   auto nll = [&](double d) {

@@ -69,6 +69,10 @@ struct EdgeOutcomes {
   /// The share of missing pixels beside the steps and on the model away from them, as counted
   /// (without the prior): a ToF sensor's edge signature when the first is much the larger.
   double step_missing = 0.0, on_missing = 0.0;
+  /// Per region (camera): the pixels judged, and the two shares (0 where it judged no pixel of
+  /// the kind).
+  std::vector<int> camera_pixels;
+  std::vector<double> camera_step_missing, camera_on_missing;
 };
 
 /// The outcomes' probabilities as the pixels of `regions` read them with the model at
