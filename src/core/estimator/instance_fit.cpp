@@ -4,6 +4,7 @@
 #include <cmath>
 #include <future>
 #include <limits>
+#include <map>
 #include <sstream>
 #include <utility>
 
@@ -403,9 +404,16 @@ void InstanceFitter::edgeScan(int m, ProfileFitResult* f) const {
     return;
   // The scan needs only the pixels that its moves can change.
   keepChangingPixels(model, T0, ec.scan_range, ctx_.cams, config_.noise, margin, &regions);
+  // Each offset once (the finer passes revisit the best so far): keyed in 0.1 mm.
+  std::map<long, double> scored;
   auto nll = [&](double d) {
-    return edgeNegLogLikelihood(model, canonicalPose(f->origin + d * f->z, f->z), ctx_.cams,
-                                regions, outcomes, config_.noise, margin);
+    const long key = std::lround(d * 1e4);
+    const auto it = scored.find(key);
+    if (it != scored.end()) return it->second;
+    const double c = edgeNegLogLikelihood(model, canonicalPose(f->origin + d * f->z, f->z),
+                                          ctx_.cams, regions, outcomes, config_.noise, margin);
+    scored.emplace(key, c);
+    return c;
   };
   // Over [lo, hi] at `step`: the best offset (the middle of the offsets that tie for the best:
   // the score is flat until a step crosses a pixel centre) and its score.
