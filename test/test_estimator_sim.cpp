@@ -257,10 +257,15 @@ TEST(EstimatorOnSimulator, CroppedDepthGivesTheSamePosesAsFull) {
 // mixed ones kept near the brighter return) cost the box end 7.5 mm mean on this seed (5.4 mm of
 // it along the axis, downwards) and 5.7 mm along-axis spread, 0.44 deg, before the edge scan
 // (edges/*: the end moved along its axis to its pixels' likelihood). With it: 4.2 mm mean (1.4 mm
-// along the axis), 3.8 mm spread, 0.40 deg. That run asserts the box end within 6 mm mean, 5 mm
-// spread, 0.6 deg, so that losing the scan's gain shows (docs/results.md has the held-out
-// figures); on the edges before the fit the scan does not run (their steps lose 2-26 % of their
-// pixels, below edges/min_step_missing).
+// along the axis), 3.8 mm spread, 0.40 deg; with a camera whose pixels do not read as edges left
+// out of the scan (edges/camera_min_step_missing), 4.3 mm mean, 3.2 mm spread, 0.39 deg, and 293
+// of 300 cycles valid (at least 295 before; the seven: the new track's first pose held, decisions
+// rejected for their residual, their position along the axis (twice), their uncertainty and an
+// ambiguous direction, one pose held by the temporal filter; the held-out seeds' validity did not
+// change, docs/results.md). That run asserts the box end within 5 mm mean, 5 mm spread,
+// 0.6 deg and 293 valid cycles, so that losing the scan's gain shows; on the edges before the fit
+// the scan does not run (their steps lose 2-26 % of their pixels, below
+// edges/min_step_missing).
 TEST(EstimatorOnSimulator, ThesisVerticalErrorTargetsHoldOnASecondSeed) {
   for (const int model_index : {0, 1, 2}) {
     const bool fit = model_index > 0, edges_refit = model_index == 2;
@@ -273,9 +278,9 @@ TEST(EstimatorOnSimulator, ThesisVerticalErrorTargetsHoldOnASecondSeed) {
     for (int l = 0; l < kNumEnds; ++l) {
       const ErrorStats& st = s.stats[l];
       SCOPED_TRACE(std::string(labelName(static_cast<EndLabel>(l))) + ", seed 7, " + model);
-      EXPECT_GE(st.estimates, 295u);
       const bool refit_box = edges_refit && l == static_cast<int>(EndLabel::kBoxEnd);
-      EXPECT_LT(st.mean_position_error, refit_box ? 0.006 : 0.005);
+      EXPECT_GE(st.estimates, refit_box ? 293u : 295u);
+      EXPECT_LT(st.mean_position_error, 0.005);
       EXPECT_LT(st.std_position.maxCoeff(), refit_box ? 0.005 : fit ? 0.0035 : 0.00305);
       EXPECT_LT(st.mean_axis_angle, (refit_box ? 0.6 : 0.5) * kDeg);
     }
