@@ -133,7 +133,8 @@ Candidate InstanceFitter::fit(const Track& tr, bool follow_track, LabelTiming* t
     const auto [first, last] = std::minmax_element(
         ctx_.cams.begin(), ctx_.cams.end(),
         [](const CycleCamera& a, const CycleCamera& b) { return a.stamp_ns < b.stamp_ns; });
-    motion_ = tr.mean_velocity.norm() * static_cast<double>(last->stamp_ns - first->stamp_ns) * 1e-9;
+    const double spread_s = static_cast<double>(last->stamp_ns - first->stamp_ns) * 1e-9;
+    motion_ = tr.mean_velocity.norm() * spread_s;
   }
   if (cd_.tracked) followTrack(tr, pred);
   if (!cd_.tracked) {
@@ -369,13 +370,13 @@ void InstanceFitter::edgeScan(int m, ProfileFitResult* f) const {
   const auto& ec = config_.edges;
   const ProfileModel& model = ctx_.models.models[m];
   const double margin = config_.free_space.margin;
+  // Not where the end moves by more than edges.max_motion within the cycle's frames.
+  if (motion_ > ec.max_motion) return;
   // One region per camera for the whole scan (every pose judged on the same pixels), and what
   // its pixels do at the refinement's pose.
   const Eigen::Isometry3d T0 = canonicalPose(f->origin, f->z);
   auto regions =
       edgeRegions(model, ctx_.models.joint_radius[m] + 0.01, T0, ctx_.cams, ec, ec.scan_range);
-  // Not where the end moves by more than edges.max_motion within the cycle's frames.
-  if (motion_ > ec.max_motion) return;
   EdgeOutcomes outcomes =
       estimateEdgeOutcomes(model, T0, ctx_.cams, regions, ec, config_.noise, margin);
   // A camera whose own pixels do not read as a ToF sensor's edges (its step pixels missing less

@@ -73,8 +73,8 @@ class InstanceFitter {
   std::vector<float> coarse_sig_;
   Points scan_pts_;       ///< points of the decision scans
   double n_scale_ = 0.0;  ///< the scans' points scaled to this count (cd_.pts.size())
-  /// [m] how far the end moves (the track's mean speed) between the cycle's earliest and latest
-  /// camera frame; 0 without a continuing track.
+  /// [m] how far the end moves (its track's mean speed) between the cycle's earliest and latest
+  /// camera frame; 0 without a fit within tracking.max_gap.
   double motion_ = 0.0;
   LabelTiming* timing_ = nullptr;
 };

@@ -345,9 +345,9 @@ struct EstimatorConfig {
     /// [m] nor where the end moves by more than this between the cycle's earliest and latest
     /// camera frame (its track's mean speed times their stamps' spread): the scan judges every
     /// camera's pixels at one pose. The moving scene's hoisted pin end (0.2 m/s, 30 Hz cameras
-    /// out of step: up to 6.6 mm) read 5.0-6.7 mm fresh median with the scan, 3.0-4.1 without
-    /// (held-out seeds 410-412), and 3.4 with the scan on synchronised cameras (design seed
-    /// 400). A third of a depth pixel's footprint at 6.5 m; not tuned.
+    /// out of step: up to 6.6 mm) read 6.0-7.2 mm fresh median with the scan, 3.4-4.4 without,
+    /// and 3.4 with the scan on synchronised cameras (design seeds 400-402; synchronised: 400).
+    /// A third of a depth pixel's footprint at 6.5 m; not tuned.
     double max_motion = 0.002;
     /// [m] the judged region: from region_below under the end's top (the box's end face, the
     /// pin's nose) along its axis to region_above beyond it, the model's radius across.
