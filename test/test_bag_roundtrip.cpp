@@ -1,5 +1,6 @@
 // simulate_bag round trip: the bag holds, for every capture of the schedule, exactly the frame the
-// simulator renders for it (byte-identical SensorFrame), the latched static TF and ground truth;
+// simulator renders for it (byte-identical SensorFrame), the latched static TF and ground truth
+// (each end's pose, and each joint's OD as rendered);
 // and a bag of SensorFrame's definition before its amplitude field still reads.
 #include <drill_pipe_pose/SensorFrame.h>
 #include <geometry_msgs/PoseStamped.h>
@@ -7,12 +8,14 @@
 #include <ros/serialization.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
+#include <std_msgs/String.h>
 #include <tf2_msgs/TFMessage.h>
 
 #include <cstdio>
 #include <cstdlib>
 #include <map>
 
+#include "drill_pipe_pose/core/evaluation.hpp"
 #include "drill_pipe_pose/ros/conversions.hpp"
 #include "drill_pipe_pose/sim/rig_simulator.hpp"
 #include "sample_messages.hpp"
@@ -52,6 +55,7 @@ TEST(SimulateBag, RoundTripIsExact) {
   rosbag::Bag bag(bag_path, rosbag::bagmode::Read);
   std::map<std::string, std::vector<SensorFrameConstPtr>> frames;
   size_t tf_static = 0, truth = 0;
+  std::vector<std::vector<TrueJoint>> joints;
   for (const rosbag::MessageInstance& m : rosbag::View(bag)) {
     if (auto f = m.instantiate<SensorFrame>()) {
       frames[f->camera].push_back(f);
@@ -63,9 +67,25 @@ TEST(SimulateBag, RoundTripIsExact) {
       EXPECT_EQ(t->transforms.size(), 3 * sim->numCameras());
     } else if (m.instantiate<geometry_msgs::PoseStamped>()) {
       ++truth;
+    } else if (auto s = m.instantiate<std_msgs::String>()) {
+      EXPECT_EQ(m.getTopic(), conventions::kGroundTruthJointsTopic);
+      joints.push_back(parseTrueJoints(s->data));
     }
   }
   EXPECT_EQ(tf_static, 1u);
+  // Each scored joint's OD as rendered, once: its wear (0-2 mm) below the scene file's.
+  ASSERT_EQ(joints.size(), 1u);
+  const auto ends = sim->groundTruth(0.0);
+  ASSERT_EQ(joints[0].size(), ends.size());
+  for (size_t i = 0; i < ends.size(); ++i) {
+    EXPECT_EQ(joints[0][i].label, ends[i].label) << i;
+    EXPECT_EQ(joints[0][i].pipe, ends[i].pipe) << i;
+    EXPECT_NEAR(joints[0][i].rendered_od, sim->scene().ends[i].rendered.tool_joint_od, 1e-9) << i;
+    EXPECT_NEAR(joints[0][i].nominal_od, 0.168275, 1e-9) << i;  // the 5" NC50's
+    EXPECT_GT(joints[0][i].nominal_od - joints[0][i].rendered_od, 0.0)
+        << i << " (seed " << seed << ")";
+    EXPECT_LE(joints[0][i].nominal_od - joints[0][i].rendered_od, 0.002) << i;
+  }
   const auto captures = sim->captures(0.0, 0.2);
   ASSERT_FALSE(captures.empty());
   EXPECT_EQ(truth, 2 * captures.size());  // both ends at every capture

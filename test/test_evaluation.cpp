@@ -232,3 +232,37 @@ TEST(Evaluation, ReportedSigmaAgainstTheActualErrorAndTheFreshPoses) {
   EXPECT_TRUE(std::isnan(none[0].fresh_median_error));
   EXPECT_TRUE(std::isnan(none[0].fresh_p95_error));
 }
+
+TEST(Evaluation, TheJointsAsRenderedReadBackAndBadEntriesAreNamed) {
+  const std::vector<TrueJoint> joints = {{EndLabel::kBoxEnd, "box_sample", 0.168275, 0.1665014},
+                                         {EndLabel::kPinEnd, "pin sample", 0.1778, 0.17693426}};
+  const std::vector<TrueJoint> back = parseTrueJoints(trueJointsYaml(joints));
+  ASSERT_EQ(back.size(), joints.size());
+  for (size_t i = 0; i < joints.size(); ++i) {
+    EXPECT_EQ(back[i].label, joints[i].label) << i;
+    EXPECT_EQ(back[i].pipe, joints[i].pipe) << i;
+    EXPECT_NEAR(back[i].nominal_od, joints[i].nominal_od, 1e-12) << i;
+    EXPECT_NEAR(back[i].rendered_od, joints[i].rendered_od, 1e-12) << i;
+  }
+  EXPECT_TRUE(parseTrueJoints("[]").empty());
+  auto error = [](const std::string& yaml) {
+    try {
+      parseTrueJoints(yaml);
+    } catch (const std::exception& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(error("{label: box_end}").find("a list of joints"), std::string::npos);
+  EXPECT_NE(
+      error("- {label: box_end, pipe: a, nominal_od: 0.17}").find("[0]: no field 'rendered_od'"),
+      std::string::npos);
+  EXPECT_NE(error("- {label: box_end, pipe: a, nominal_od: 0.17, rendered_od: 0.17}\n"
+                  "- {label: tool_joint, pipe: a, nominal_od: 0.17, rendered_od: 0.17}")
+                .find("[1].label"),
+            std::string::npos);
+  EXPECT_NE(error("- {label: pin_end, pipe: a, nominal_od: 0.17, rendered_od: wide}").find("[0]"),
+            std::string::npos);
+  EXPECT_NE(error("- {label: pin_end, pipe: a, nominal_od: 0.17, rendered_od: 0}").find("positive"),
+            std::string::npos);
+}

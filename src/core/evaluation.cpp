@@ -1,5 +1,7 @@
 #include "drill_pipe_pose/core/evaluation.hpp"
 
+#include <yaml-cpp/yaml.h>
+
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
@@ -7,6 +9,8 @@
 #include <limits>
 #include <numeric>
 #include <ostream>
+#include <sstream>
+#include <stdexcept>
 
 namespace drill_pipe_pose {
 
@@ -282,6 +286,52 @@ InstanceEvaluation evaluateInstances(const TrueEnds& truth, const std::vector<Re
   }
   for (const auto& [id, ends] : ev.id_truth) ev.mixed_ids += ends.size() > 1 ? 1 : 0;
   return ev;
+}
+
+std::string trueJointsYaml(const std::vector<TrueJoint>& joints) {
+  YAML::Emitter out;
+  out.SetDoublePrecision(9);
+  out << YAML::BeginSeq;
+  for (const TrueJoint& j : joints)
+    out << YAML::Flow << YAML::BeginMap << YAML::Key << "label" << YAML::Value
+        << labelName(j.label) << YAML::Key << "pipe" << YAML::Value << j.pipe << YAML::Key
+        << "nominal_od" << YAML::Value << j.nominal_od << YAML::Key << "rendered_od"
+        << YAML::Value << j.rendered_od << YAML::EndMap;
+  out << YAML::EndSeq;
+  return out.c_str();
+}
+
+std::vector<TrueJoint> parseTrueJoints(const std::string& yaml) {
+  const std::string where = std::string(conventions::kGroundTruthJointsTopic);
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml);
+  } catch (const YAML::Exception& e) {
+    throw std::runtime_error(where + ": not YAML: " + e.what());
+  }
+  if (!root.IsSequence()) throw std::runtime_error(where + ": expected a list of joints");
+  std::vector<TrueJoint> out;
+  for (size_t i = 0; i < root.size(); ++i) {
+    const YAML::Node& n = root[i];
+    const std::string entry = where + "[" + std::to_string(i) + "]";
+    auto field = [&](const char* key) {
+      if (!n.IsMap() || !n[key]) throw std::runtime_error(entry + ": no field '" + key + "'");
+      return n[key];
+    };
+    TrueJoint j;
+    try {
+      j.label = parseEndLabel(field("label").as<std::string>(), entry + ".label");
+      j.pipe = field("pipe").as<std::string>();
+      j.nominal_od = field("nominal_od").as<double>();
+      j.rendered_od = field("rendered_od").as<double>();
+    } catch (const YAML::Exception& e) {
+      throw std::runtime_error(entry + ": " + e.what());
+    }
+    if (!(j.rendered_od > 0) || !(j.nominal_od > 0))
+      throw std::runtime_error(entry + ": the ODs must be positive");
+    out.push_back(j);
+  }
+  return out;
 }
 
 }  // namespace drill_pipe_pose

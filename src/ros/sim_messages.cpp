@@ -6,6 +6,7 @@
 
 #include "drill_pipe_pose/core/conventions.hpp"
 #include "drill_pipe_pose/core/errors.hpp"
+#include "drill_pipe_pose/core/evaluation.hpp"
 #include "drill_pipe_pose/ros/conversions.hpp"
 
 namespace drill_pipe_pose {
@@ -23,6 +24,15 @@ std::vector<geometry_msgs::TransformStamped> simStaticTransforms(const sim::RigS
                                  conventions::depthOpticalFrame(cam), stamp));
   }
   return out;
+}
+
+std_msgs::String simTrueJoints(const sim::RigSimulator& sim) {
+  std::vector<TrueJoint> joints;
+  for (const auto& e : sim.groundTruth(0.0))
+    joints.push_back({e.label, e.pipe, e.nominal_od, e.rendered_od});
+  std_msgs::String msg;
+  msg.data = trueJointsYaml(joints);
+  return msg;
 }
 
 std::vector<std::pair<std::string, geometry_msgs::PoseStamped>> simGroundTruth(

@@ -345,8 +345,9 @@ std::vector<RigSimulator::TruthEnd> RigSimulator::groundTruth(double t) const {
   std::vector<TruthEnd> out;
   for (size_t i = 0; i < scene_.ends.size(); ++i)
     if (scene_.ends[i].ground_truth)
-      out.push_back(
-          {scene_.ends[i].label, scene_.ends[i].pipe, canonicalize(scene_.endPose(i, t))});
+      out.push_back({scene_.ends[i].label, scene_.ends[i].pipe,
+                     canonicalize(scene_.endPose(i, t)), scene_.ends[i].nominal.tool_joint_od,
+                     scene_.ends[i].rendered.tool_joint_od});
   return out;
 }
 

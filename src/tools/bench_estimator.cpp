@@ -20,6 +20,7 @@
 // Exit status 0; 1 on a bad bag or configuration; 2 on a bad command line.
 #include <drill_pipe_pose/SensorFrame.h>
 #include <geometry_msgs/PoseStamped.h>
+#include <std_msgs/String.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
 #include <sys/resource.h>
@@ -161,6 +162,7 @@ struct BagContents {
   TfTransforms tf;
   std::array<GroundTruthTrack, kNumEnds> truth;
   TrueEnds true_ends;  ///< every true end per stamp (several of one label: several pipes)
+  std::vector<TrueJoint> joints;  ///< the joints as rendered (simulate_bag's bags since 2026-12)
   std::set<std::string> cameras;
 };
 
@@ -172,6 +174,8 @@ void readBagContents(rosbag::Bag& bag, const std::string& skip_camera, BagConten
         for (const auto& t : msg->transforms) out->tf.add(t, topic == "/tf_static");
     } else if (auto sf = sensorFrameOf(m)) {
       if (sf->camera != skip_camera) out->cameras.insert(sf->camera);
+    } else if (topic == conventions::kGroundTruthJointsTopic) {
+      if (auto s = m.instantiate<std_msgs::String>()) out->joints = parseTrueJoints(s->data);
     } else {
       for (EndLabel e : {EndLabel::kBoxEnd, EndLabel::kPinEnd})
         if (topic == conventions::groundTruthTopic(e))
@@ -397,7 +401,8 @@ void reportInstances(const BenchOptions& o, const InstanceEvaluation& ev) {
 }
 
 void report(const BenchOptions& o, const std::string& method, size_t n_cameras, const Tally& t,
-            const std::array<EndEvaluation, kNumEnds>& evals) {
+            const std::array<EndEvaluation, kNumEnds>& evals,
+            const std::vector<TrueJoint>& joints) {
   rusage ru{};
   getrusage(RUSAGE_SELF, &ru);
   const std::string label = o.label.empty() ? o.bag_path : o.label;
@@ -436,10 +441,20 @@ void report(const BenchOptions& o, const std::string& method, size_t n_cameras, 
   for (int e = 0; e < kNumEnds; ++e) {
     const Tally::Types& ty = t.types[e];
     if (!ty.reports) continue;
+    // The joint's OD as rendered, where the bag names one joint of this label (one pipe).
+    std::ostringstream od_error;
+    std::vector<double> rendered;
+    for (const TrueJoint& j : joints)
+      if (static_cast<int>(j.label) == e) rendered.push_back(j.rendered_od);
+    if (rendered.size() == 1 && ty.measurements > 0)
+      od_error << std::fixed << std::setprecision(4) << " true_od_mm=" << rendered[0] * 1e3
+               << " od_error_mm=" << (ty.od - rendered[0]) * 1e3;
     std::cout << std::fixed << "pipe type " << labelName(static_cast<EndLabel>(e)) << ": measured OD "
               << std::setprecision(1) << ty.od * 1e3 << " mm (spread " << ty.od_spread * 1e3
               << " mm, " << ty.measurements << " measurements), tube OD " << ty.tube_od * 1e3
               << " mm (" << ty.tube_measurements << " measurements);";
+    if (rendered.size() == 1 && ty.measurements > 0)
+      std::cout << " joint as rendered " << std::setprecision(1) << rendered[0] * 1e3 << " mm;";
     for (const auto& [name, n] : ty.top)
       std::cout << " " << name << " " << std::setprecision(1) << 100.0 * n / ty.reports << " %";
     std::cout << "\n";
@@ -456,7 +471,7 @@ void report(const BenchOptions& o, const std::string& method, size_t n_cameras, 
       const auto least = ty.least_not_top.find(name);
       std::cout << " least_probability_not_top="
                 << (least == ty.least_not_top.end() ? 1.0 : least->second)
-                << " measured_od_mm=" << ty.od * 1e3 << "\n";
+                << " measured_od_mm=" << ty.od * 1e3 << od_error.str() << "\n";
     }
   }
   // One machine-readable line per end for scripts/bench.
@@ -560,7 +575,7 @@ int main(int argc, char** argv) {
                                 : last_stamp - first_stamp;
     eo.expected_cycles = std::max<size_t>(t.cycles, std::llround(span_ns * 1e-9 * 30.0));
     const auto evals = evaluate(bc.truth, t.estimates, eo);
-    report(opt, estimatorMethodName(cfg.estimator.method), bc.cameras.size(), t, evals);
+    report(opt, estimatorMethodName(cfg.estimator.method), bc.cameras.size(), t, evals, bc.joints);
     reportInstances(opt, evaluateInstances(bc.true_ends, t.reported));
     if (!opt.csv_path.empty()) {
       std::ofstream f(opt.csv_path);

@@ -18,8 +18,9 @@
 // --crop sends each SensorFrame's depth cropped to its boxes' frustum (roi), as a bandwidth-saving
 // sensor node does: bags are ~100x smaller and the estimator's poses are the same.
 // The bag (LZ4) carries what the estimator needs: <cam>/sensor_frame (SensorFrame, simulated
-// detections unless --no-detection), /tf_static (latched) and /ground_truth/<end>. --color adds
-// the kinect2_bridge-style camera topics (QHD colour ~1.5 MB per frame: keep such bags short).
+// detections unless --no-detection), /tf_static (latched), /ground_truth/<end> and, once at the
+// start, /ground_truth/joints (each scored joint's OD as rendered, its wear included). --color
+// adds the kinect2_bridge-style camera topics (QHD colour ~1.5 MB per frame: keep such bags short).
 // --effect-off switches one of the profile's sensor effects off (repeatable; the names are
 // SensorEffects' fields: axial_noise, lateral_noise, depth_offset, flying_pixels, ...), to
 // measure what each costs the estimator. --model chooses the sensor model: fitted (the profile
@@ -478,6 +479,8 @@ int main(int argc, char** argv) {
     if (detector)
       for (const auto& t : tf_static.transforms) detector->addTf(t, true);
     if (!true_rig.empty()) writeTrueRig(sim, true_rig);
+    bag.write(conventions::kGroundTruthJointsTopic, fromNs(sim.stampNs(start)),
+              simTrueJoints(sim));
 
     const auto wall0 = std::chrono::steady_clock::now();
     const size_t frames = writeFrames(sim, start, duration, fo, &bag);

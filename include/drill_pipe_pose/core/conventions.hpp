@@ -65,6 +65,8 @@ constexpr const char* kPipeEndsTopic = "pipe_ends";
 /// Every end with its instance id and pipe type (PipeEndArray).
 constexpr const char* kPipeEndTypesTopic = "pipe_end_types";
 constexpr const char* kStatusTopic = "status";
+/// The simulator's scored joints as rendered (evaluation.hpp, TrueJoint), once per bag.
+constexpr const char* kGroundTruthJointsTopic = "/ground_truth/joints";
 inline std::string groundTruthTopic(EndLabel e) {
   return std::string("/ground_truth/") + (e == EndLabel::kBoxEnd ? kBoxEndLabel : kPinEndLabel);
 }

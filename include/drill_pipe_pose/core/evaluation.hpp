@@ -154,6 +154,20 @@ struct InstanceEvaluation {
   std::map<std::pair<int, size_t>, TrueEndTypes> types;  ///< per true end, its reports' types
 };
 
+/// A scored end's tool joint as the simulator rendered it: what a measured OD is judged against
+/// (its wear included, which the scene file's OD is not).
+struct TrueJoint {
+  EndLabel label = EndLabel::kBoxEnd;
+  std::string pipe;        ///< the scene's pipe it belongs to
+  double nominal_od = 0;   ///< [m] tool-joint OD in the scene file
+  double rendered_od = 0;  ///< [m] ...less its wear, as rendered
+};
+
+/// The joints as YAML (a list of maps: label, pipe, nominal_od, rendered_od) and back. Parsing
+/// throws std::runtime_error naming the entry and field at fault.
+std::string trueJointsYaml(const std::vector<TrueJoint>& joints);
+std::vector<TrueJoint> parseTrueJoints(const std::string& yaml);
+
 /// Every report matched to the nearest true end of its label at the cycle's stamp (the latest
 /// truth at or before it) within match_distance [m]; see InstanceEvaluation.
 InstanceEvaluation evaluateInstances(const TrueEnds& truth, const std::vector<ReportedEnd>& reports,

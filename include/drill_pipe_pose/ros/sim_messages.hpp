@@ -6,6 +6,7 @@
 #include <geometry_msgs/TransformStamped.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
+#include <std_msgs/String.h>
 
 #include <string>
 #include <utility>
@@ -23,6 +24,10 @@ std::vector<geometry_msgs::TransformStamped> simStaticTransforms(const sim::RigS
 
 /// (topic, message) ground truth of every pipe end at simulation time t [s], stamped as the
 /// simulator stamps its frames.
+/// The scored joints as rendered (TrueJoint; kGroundTruthJointsTopic): what a measured OD is
+/// judged against.
+std_msgs::String simTrueJoints(const sim::RigSimulator& sim);
+
 std::vector<std::pair<std::string, geometry_msgs::PoseStamped>> simGroundTruth(
     const sim::RigSimulator& sim, double t);
 

@@ -138,6 +138,8 @@ class RigSimulator {
     EndLabel label;
     std::string pipe;               ///< the pipe it belongs to
     Eigen::Isometry3d T_world_end;  ///< canonical roll (core canonicalPose)
+    double nominal_od = 0;          ///< [m] tool-joint OD in the scene file
+    double rendered_od = 0;         ///< [m] ...less its wear, as rendered
   };
   /// Ground-truth pipe-end poses at time t [s] (scored ends only: not distractor pipes).
   std::vector<TruthEnd> groundTruth(double t) const;
