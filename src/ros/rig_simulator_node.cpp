@@ -52,6 +52,9 @@ class RigSimulatorNode {
     }
     if (publish_clock_) clock_pub_ = nh_.advertise<rosgraph_msgs::Clock>("/clock", 10);
     static_tf_.sendTransform(simStaticTransforms(*sim_));
+    // The joints as rendered (their worn ODs), latched: a recording of a live run has them too.
+    joints_pub_ = nh_.advertise<std_msgs::String>(conventions::kGroundTruthJointsTopic, 1, true);
+    joints_pub_.publish(simTrueJoints(*sim_));
     ROS_INFO(
         "rig_simulator: %zu cameras (rig %s), scene %s, profile %s, seed %d, simulated "
         "detection %s, colour %s, crop %s, rate %.2f, %s",
@@ -130,6 +133,7 @@ class RigSimulatorNode {
   std::vector<ros::Publisher> frame_pubs_;
   std::map<std::string, ros::Publisher> pubs_;
   ros::Publisher clock_pub_;
+  ros::Publisher joints_pub_;
   tf2_ros::StaticTransformBroadcaster static_tf_;
   ros::WallTimer timer_;
   ros::WallTime wall0_;
