@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """Counts test cases in a catkin test_results folder and prints 'N passed, N failed'.
 
-gtest-*.xml and rosunit-*.xml hold the real test cases. A rostest-*.xml wrapper adds a failure
-only when the wrapper itself failed (a node crashed, no result file): counted once, on top.
+gtest-*.xml and rosunit-*.xml hold the real test cases; a suite's errors outside any case (its
+set-up raised) count as failures. A rostest-*.xml wrapper adds a failure only when the wrapper
+itself failed (a node crashed, no result file): counted once, on top.
 """
 import glob
 import os
@@ -21,6 +22,14 @@ def cases(path):
             skipped += 1
         else:
             passed += 1
+    # An error outside any test case (a test class whose set-up raised: rosunit writes a suite
+    # with errors="1" and no case) counts too.
+    declared = sum(int(ts.get("errors", 0) or 0) + int(ts.get("failures", 0) or 0)
+                   for ts in root.iter("testsuite"))
+    if declared > failed:
+        print(f"  FAILED {root.get('name')}: {declared - failed} error(s) outside any test case "
+              f"({os.path.basename(path)})")
+        failed = declared
     return passed, failed, skipped
 
 

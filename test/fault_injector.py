@@ -57,8 +57,8 @@ class BagData:
                     self.frames.append((s, topic, msg))
                 elif topic == "/tf_static":
                     self.tf_static.extend(msg.transforms)
-                elif topic.startswith("/ground_truth/"):
-                    lab = topic.rsplit("/", 1)[1]
+                elif topic.startswith("/ground_truth/") and topic.rsplit("/", 1)[1] in LABELS:
+                    lab = topic.rsplit("/", 1)[1]  # the ends' poses (not /ground_truth/joints)
                     self.truth[lab][0].append(msg.header.stamp.to_sec())
                     self.truth[lab][1].append(pose_matrix(msg.pose))
         self.frames.sort(key=lambda f: f[0])
