@@ -9,8 +9,8 @@
 #include <limits>
 #include <numeric>
 #include <ostream>
-#include <sstream>
-#include <stdexcept>
+
+#include "drill_pipe_pose/core/errors.hpp"
 
 namespace drill_pipe_pose {
 
@@ -307,15 +307,15 @@ std::vector<TrueJoint> parseTrueJoints(const std::string& yaml) {
   try {
     root = YAML::Load(yaml);
   } catch (const YAML::Exception& e) {
-    throw std::runtime_error(where + ": not YAML: " + e.what());
+    fail(where, ": not YAML: ", e.what());
   }
-  if (!root.IsSequence()) throw std::runtime_error(where + ": expected a list of joints");
+  if (!root.IsSequence()) fail(where, ": expected a list of joints");
   std::vector<TrueJoint> out;
   for (size_t i = 0; i < root.size(); ++i) {
     const YAML::Node& n = root[i];
     const std::string entry = where + "[" + std::to_string(i) + "]";
     auto field = [&](const char* key) {
-      if (!n.IsMap() || !n[key]) throw std::runtime_error(entry + ": no field '" + key + "'");
+      if (!n.IsMap() || !n[key]) fail(entry, ": no field '", key, "'");
       return n[key];
     };
     TrueJoint j;
@@ -325,10 +325,9 @@ std::vector<TrueJoint> parseTrueJoints(const std::string& yaml) {
       j.nominal_od = field("nominal_od").as<double>();
       j.rendered_od = field("rendered_od").as<double>();
     } catch (const YAML::Exception& e) {
-      throw std::runtime_error(entry + ": " + e.what());
+      fail(entry, ": ", e.what());
     }
-    if (!(j.rendered_od > 0) || !(j.nominal_od > 0))
-      throw std::runtime_error(entry + ": the ODs must be positive");
+    if (!(j.rendered_od > 0) || !(j.nominal_od > 0)) fail(entry, ": the ODs must be positive");
     out.push_back(j);
   }
   return out;

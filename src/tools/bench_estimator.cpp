@@ -20,9 +20,9 @@
 // Exit status 0; 1 on a bad bag or configuration; 2 on a bad command line.
 #include <drill_pipe_pose/SensorFrame.h>
 #include <geometry_msgs/PoseStamped.h>
-#include <std_msgs/String.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
+#include <std_msgs/String.h>
 #include <sys/resource.h>
 #include <tf2_eigen/tf2_eigen.h>
 #include <tf2_msgs/TFMessage.h>
@@ -162,7 +162,7 @@ struct BagContents {
   TfTransforms tf;
   std::array<GroundTruthTrack, kNumEnds> truth;
   TrueEnds true_ends;  ///< every true end per stamp (several of one label: several pipes)
-  std::vector<TrueJoint> joints;  ///< the joints as rendered (simulate_bag's bags since 2026-12)
+  std::vector<TrueJoint> joints;  ///< the joints as rendered (simulate_bag's bags; else empty)
   std::set<std::string> cameras;
 };
 

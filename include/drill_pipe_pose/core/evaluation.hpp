@@ -164,7 +164,7 @@ struct TrueJoint {
 };
 
 /// The joints as YAML (a list of maps: label, pipe, nominal_od, rendered_od) and back. Parsing
-/// throws std::runtime_error naming the entry and field at fault.
+/// throws InputError (core/errors.hpp) naming the entry and field at fault.
 std::string trueJointsYaml(const std::vector<TrueJoint>& joints);
 std::vector<TrueJoint> parseTrueJoints(const std::string& yaml);
 

@@ -22,12 +22,12 @@ namespace drill_pipe_pose {
 /// <cam>_rgb_optical_frame -> <cam>_ir_optical_frame (the sensor's colour-to-depth calibration).
 std::vector<geometry_msgs::TransformStamped> simStaticTransforms(const sim::RigSimulator& sim);
 
-/// (topic, message) ground truth of every pipe end at simulation time t [s], stamped as the
-/// simulator stamps its frames.
 /// The scored joints as rendered (TrueJoint; kGroundTruthJointsTopic): what a measured OD is
 /// judged against.
 std_msgs::String simTrueJoints(const sim::RigSimulator& sim);
 
+/// (topic, message) ground truth of every pipe end at simulation time t [s], stamped as the
+/// simulator stamps its frames.
 std::vector<std::pair<std::string, geometry_msgs::PoseStamped>> simGroundTruth(
     const sim::RigSimulator& sim, double t);
 
