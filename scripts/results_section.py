@@ -3,6 +3,15 @@
 the markers are absent. Used by the bench scripts."""
 import os
 import re
+import subprocess
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def commit_stamp():
+    """The checkout's short commit, which a generated section names."""
+    return subprocess.run(["git", "-C", REPO, "rev-parse", "--short", "HEAD"],
+                          stdout=subprocess.PIPE, text=True).stdout.strip()
 
 
 def write_section(path, name, title, lines):

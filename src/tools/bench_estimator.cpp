@@ -446,14 +446,15 @@ void report(const BenchOptions& o, const std::string& method, size_t n_cameras, 
     std::vector<double> rendered;
     for (const TrueJoint& j : joints)
       if (static_cast<int>(j.label) == e) rendered.push_back(j.rendered_od);
-    if (rendered.size() == 1 && ty.measurements > 0)
+    const bool judged = rendered.size() == 1 && ty.measurements > 0;
+    if (judged)
       od_error << std::fixed << std::setprecision(4) << " true_od_mm=" << rendered[0] * 1e3
                << " od_error_mm=" << (ty.od - rendered[0]) * 1e3;
     std::cout << std::fixed << "pipe type " << labelName(static_cast<EndLabel>(e)) << ": measured OD "
               << std::setprecision(1) << ty.od * 1e3 << " mm (spread " << ty.od_spread * 1e3
               << " mm, " << ty.measurements << " measurements), tube OD " << ty.tube_od * 1e3
               << " mm (" << ty.tube_measurements << " measurements);";
-    if (rendered.size() == 1 && ty.measurements > 0)
+    if (judged)
       std::cout << " joint as rendered " << std::setprecision(1) << rendered[0] * 1e3 << " mm;";
     for (const auto& [name, n] : ty.top)
       std::cout << " " << name << " " << std::setprecision(1) << 100.0 * n / ty.reports << " %";
